@@ -1,0 +1,1 @@
+// Replaced by the arm-planning sources; keeps the library target valid meanwhile.

@@ -1,0 +1,1 @@
+// Replaced by the renderer sources; keeps the library target valid meanwhile.
