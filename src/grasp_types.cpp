@@ -45,10 +45,10 @@ const char* toString(GraspFailure failure)
   return "Unknown";
 }
 
-void sortGraspsBestFirst(std::vector<Grasp>& grasps)
+void sortGraspsBestFirst(std::vector<GraspCandidate>& grasps)
 {
-  auto balance = [](const Grasp& g) { return std::isnan(g.force_balance_rad) ? 1e9 : g.force_balance_rad; };
-  std::stable_sort(grasps.begin(), grasps.end(), [&](const Grasp& a, const Grasp& b) {
+  auto balance = [](const GraspCandidate& g) { return std::isnan(g.force_balance_rad) ? 1e9 : g.force_balance_rad; };
+  std::stable_sort(grasps.begin(), grasps.end(), [&](const GraspCandidate& a, const GraspCandidate& b) {
     if (a.score != b.score)
       return a.score > b.score;
     return balance(a) < balance(b);

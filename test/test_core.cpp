@@ -41,7 +41,7 @@ TEST(GripperModel, MissingKeyAndFileAreClearErrors)
 
 TEST(GraspTypes, PoseIsRightHandedAndExposesGpdVectors)
 {
-  Grasp g;
+  GraspCandidate g;
   g.pose = makeGraspPose(Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(0, 0, -2), Eigen::Vector3d(1, 0, 0.5));
   EXPECT_TRUE(g.approach().isApprox(Eigen::Vector3d(0, 0, -1)));
   EXPECT_TRUE(g.binormal().isApprox(Eigen::Vector3d(1, 0, 0)));
@@ -52,7 +52,7 @@ TEST(GraspTypes, PoseIsRightHandedAndExposesGpdVectors)
 
 TEST(GraspTypes, SortBestFirst)
 {
-  std::vector<Grasp> grasps(3);
+  std::vector<GraspCandidate> grasps(3);
   grasps[0].score = 0.1;
   grasps[1].score = 0.9;
   grasps[2].score = 0.5;

@@ -1,6 +1,8 @@
 // Core grasp-planning types shared by every planner. ROS-free: C++17, Eigen, PCL.
 #pragma once
 
+#include "fast_grasp/gripper_model.h"
+
 #include <Eigen/Geometry>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -33,9 +35,10 @@ struct ObjectView
   Eigen::Vector3f gravity{ 0.0f, 0.0f, -1.0f };
 };
 
-/// One grasp. Frame convention (DESIGN.md): origin at the centre of the closing region,
+/// One grasp (named GraspCandidate because the ROS message fast_grasp::GraspCandidate shares the
+/// namespace). Frame convention (DESIGN.md): origin at the centre of the closing region,
 /// X = approach (hand into object), Y = closing direction, Z = X x Y.
-struct Grasp
+struct GraspCandidate
 {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   double width_m = 0.0;
@@ -79,7 +82,7 @@ const char* toString(GraspFailure failure);
 /// plus the intermediate products worth drawing.
 struct GraspResult
 {
-  std::vector<Grasp> grasps;  // sorted by score, best first; empty iff failure != None
+  std::vector<GraspCandidate> grasps;  // sorted by score, best first; empty iff failure != None
   GraspFailure failure = GraspFailure::None;
   std::string message;  // human-readable reason (or a summary on success)
   double compute_time_s = 0.0;
@@ -88,7 +91,7 @@ struct GraspResult
   // Intermediate products (base frame) for markers and debugging; any may be empty.
   CloudXYZ hull;            // boundary / hull contour
   CloudXYZ graspable_zone;  // e.g. Ch3 crossing points within the opening
-  std::vector<Grasp> candidates;  // evaluated candidates, with their scores
+  std::vector<GraspCandidate> candidates;  // evaluated candidates, with their scores
   CloudXYZ unseen;          // Ch6 unseen-part obstacle points
   /// Ch3.2.3: suggested next sensor pose when no grasp passes.
   std::optional<Eigen::Isometry3d> next_view;
@@ -103,8 +106,25 @@ struct GraspResult
   }
 };
 
+// Transitional alias for code written before the rename; the ROS layer defines
+// FAST_GRASP_NO_GRASP_ALIAS because there fast_grasp::Grasp is the message.
+#ifndef FAST_GRASP_NO_GRASP_ALIAS
+using Grasp = GraspCandidate;
+#endif
+
+/// Every grasp algorithm implements this one interface. Algorithm parameters are given to
+/// the planner's constructor, so one planner object serves many views; plan() is const and
+/// thread-safe.
+class GraspPlanner
+{
+public:
+  virtual ~GraspPlanner() = default;
+  virtual GraspResult plan(const ObjectView& view, const GripperModel& gripper) const = 0;
+  virtual const char* name() const = 0;  // "principal_axis", "cshape", ...
+};
+
 /// Sorts grasps best first (highest score; ties broken by smaller force balance).
-void sortGraspsBestFirst(std::vector<Grasp>& grasps);
+void sortGraspsBestFirst(std::vector<GraspCandidate>& grasps);
 
 /// Monotonic stopwatch for time budgets.
 class Stopwatch

@@ -1,0 +1,117 @@
+// Joint-space motion planning with OMPL for a URDF chain, collision-checked by RobotCollision.
+// ROS-free; OMPL types appear only as forward declarations here.
+#pragma once
+
+#include "fast_grasp/robot_collision.h"
+
+#include <Eigen/Core>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace ompl
+{
+namespace base
+{
+class Planner;
+class SpaceInformation;
+}  // namespace base
+namespace geometric
+{
+class SimpleSetup;
+}  // namespace geometric
+}  // namespace ompl
+
+namespace fast_grasp
+{
+/// Planner parameters by OMPL planner name, then OMPL parameter name -> value
+/// (config/planners.yaml; defaults are the thesis's Table 6.2).
+using PlannerParameterTable = std::map<std::string, std::map<std::string, std::string>>;
+
+struct MotionPlanningParams
+{
+  std::string planner = "RRTConnect";        // any name of ArmMotionPlanner::plannerNames()
+  double planning_time_s = 3.0;              // budget for solve(); simplification comes out of it too
+  double simplify_time_s = 0.2;              // at most this for path simplification
+  bool simplify = true;
+  /// Motion validation step as a fraction of the joint space's extent (OMPL / MoveIt
+  /// longest_valid_segment_fraction; the thesis keeps MoveIt's 0.005).
+  double longest_valid_segment_fraction = 0.005;
+  /// The motion validator's step above is 0.005 x 15.4 rad = 0.077 rad for a UR5 with +-pi
+  /// limits (up to 7 cm at the hand), so the final path is re-checked with joint steps of at
+  /// most recheck_step_rad (0.005 rad ~ 5 mm at 1 m); a path failing it is discarded and the
+  /// planner runs again within the budget. 0 disables the re-check.
+  double recheck_step_rad = 0.005;
+  /// Keep the gripper horizontal: the grasp frame's Z axis (normal of the closing plane)
+  /// stays within horizontal_tolerance_rad of the vertical at every state the planner and
+  /// the motion validator check (the held object stays upright).
+  bool keep_gripper_horizontal = false;
+  double horizontal_tolerance_rad = 0.1;
+  PlannerParameterTable planner_params;
+};
+
+enum class MotionPlanStatus
+{
+  Success,
+  InvalidInput,    // wrong joint count, NaN, empty goal list
+  UnknownPlanner,  // name not in plannerNames()
+  StartInvalid,    // start in collision, outside limits or violating the constraint
+  GoalInvalid,     // every goal is in collision / outside limits / violating the constraint
+  NoPath           // no exact solution within the time budget (approximate = failure)
+};
+const char* toString(MotionPlanStatus status);
+
+struct MotionPlanResult
+{
+  MotionPlanStatus status = MotionPlanStatus::InvalidInput;
+  std::string message;
+  std::vector<Eigen::VectorXd> path;  // start ... goal (one of the goals), simplified
+  double planning_time_s = 0.0;       // solve + simplify
+  double path_length_rad = 0.0;       // joint-space length (OMPL's path length)
+  bool ok() const { return status == MotionPlanStatus::Success; }
+};
+
+/// Plans collision-free joint paths. Holds a snapshot of the collision model + scene; plan()
+/// is const and may run concurrently (the validity checker is stateless).
+class ArmMotionPlanner
+{
+public:
+  explicit ArmMotionPlanner(const RobotCollision& collision) : collision_(collision) {}
+
+  /// The thesis's 23 OMPL geometric planners (Table 6.1), by OMPL name.
+  static const std::vector<std::string>& plannerNames();
+
+  /// Plans from start to the nearest reachable of `goals` (an OMPL goal set).
+  MotionPlanResult plan(const Eigen::VectorXd& start, const std::vector<Eigen::VectorXd>& goals,
+                        const MotionPlanningParams& params) const;
+
+  /// State validity as the planner sees it (limits, collision, optional constraint).
+  bool isValid(const Eigen::VectorXd& q, const MotionPlanningParams& params, std::string* why = nullptr) const;
+  /// Angle (rad) between the grasp frame's Z axis and the vertical (sign-agnostic).
+  double gripperTiltRad(const Eigen::VectorXd& q) const;
+
+  /// For benchmarks (ompl::tools::Benchmark): a SimpleSetup with the space, validity checker,
+  /// motion resolution, start and goals configured; the planner is left unset.
+  std::shared_ptr<ompl::geometric::SimpleSetup> makeSetup(const Eigen::VectorXd& start,
+                                                          const std::vector<Eigen::VectorXd>& goals,
+                                                          const MotionPlanningParams& params) const;
+  /// Allocates a planner by name with its parameters from params.planner_params; unknown
+  /// parameter names are appended to `unknown_params` (null planner for an unknown name).
+  static std::shared_ptr<ompl::base::Planner> allocatePlanner(const std::string& name,
+                                                              const std::shared_ptr<ompl::base::SpaceInformation>& si,
+                                                              const PlannerParameterTable& table,
+                                                              std::vector<std::string>* unknown_params = nullptr);
+
+  const RobotCollision& collision() const { return collision_; }
+
+private:
+  RobotCollision collision_;
+};
+
+/// Reads config/planners.yaml: { PlannerName: { param: value, ... }, ... }. Throws
+/// std::runtime_error naming the file on a missing file or a malformed entry.
+PlannerParameterTable loadPlannerParameters(const std::string& yaml_path);
+
+}  // namespace fast_grasp

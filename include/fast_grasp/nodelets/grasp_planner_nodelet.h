@@ -1,0 +1,68 @@
+// Shared ROS wrapper for every grasp algorithm: the subclasses only build their planner
+// from parameters. Everything else — input checks, ObjectView assembly, messages,
+// markers, status — lives here once.
+#pragma once
+
+#include "fast_grasp/GraspArray.h"
+#include "fast_grasp/SegmentedScene.h"
+#include "fast_grasp/grasp_types.h"
+#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/nodelets/nodelet_status.h"
+
+#include <nodelet/nodelet.h>
+#include <pcl_ros/point_cloud.h>
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+class GraspPlannerNodelet : public nodelet::Nodelet
+{
+public:
+  using InputCloud = pcl::PointCloud<pcl::PointNormal>;
+
+protected:
+  /// Builds the algorithm from the private parameters (called once, in onInit).
+  virtual std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) = 0;
+  /// Hook for algorithm-specific outputs (e.g. Ch3's next view).
+  virtual void publishExtras(const GraspResult& /*result*/, const std_msgs::Header& /*header*/) {}
+  ros::NodeHandle& privateHandle() { return private_nh_; }
+
+private:
+  void onInit() override;
+  void cloudCallback(const boost::shared_ptr<const InputCloud>& cloud);
+  void sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene);
+  /// Sensor origins in the cloud's frame: tf look-ups of ~sensor_frames, else the
+  /// cloud's own sensor_origin_. Empty string on success, else why not.
+  std::string lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins);
+  void publishMarkers(const GraspResult& result, const std_msgs::Header& header);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  ros::Subscriber cloud_sub_;
+  ros::Subscriber scene_sub_;
+  ros::Publisher grasps_pub_;
+  ros::Publisher markers_pub_;
+  NodeletStatus status_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+
+  std::unique_ptr<GraspPlanner> planner_;
+  GripperModel gripper_;
+  std::vector<std::string> sensor_frames_;
+  double tf_timeout_s_ = 0.1;
+  int max_input_points_ = 200000;
+  int max_marker_candidates_ = 100;
+
+  std::mutex scene_mutex_;
+  bool has_table_plane_ = false;
+  Eigen::Vector4f table_plane_{ 0.0f, 0.0f, 1.0f, 0.0f };
+};
+
+}  // namespace fast_grasp

@@ -1,0 +1,148 @@
+#!/usr/bin/python3
+"""Prints, per camera frame of the replayed bag, what the pipeline found: the table plane,
+the target object (points, centroid, extent), the chosen grasp and, when the arm planner
+runs, the trajectory. Exits once every frame of the bag is reported, or after ~timeout_s.
+
+Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic,
+expect_grasps (bool), expect_trajectory (bool).
+"""
+import math
+import threading
+
+import rosbag
+import rospy
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory
+
+from fast_grasp.msg import GraspArray, SegmentedScene
+
+
+def count_frames(bag_path, topic):
+    with rosbag.Bag(bag_path) as bag:
+        info = bag.get_type_and_topic_info().topics
+        return info[topic].message_count if topic in info else 0
+
+
+class Report:
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.frames = {}  # stamp -> dict of parts
+        self.order = []
+        self.expect_grasps = rospy.get_param("~expect_grasps", True)
+        self.expect_trajectory = rospy.get_param("~expect_trajectory", False)
+        self.arm_status = ""
+
+    def frame(self, stamp):
+        key = stamp.to_nsec()
+        if key not in self.frames:
+            self.frames[key] = {}
+            self.order.append(key)
+        return self.frames[key]
+
+    def complete(self, parts):
+        needed = ["scene"]
+        if parts.get("scene") is not None and parts["scene"].ok:
+            if self.expect_grasps:
+                needed.append("grasps")
+                grasps = parts.get("grasps")
+                if self.expect_trajectory and grasps is not None and grasps.grasps:
+                    needed.append("trajectory")
+        return all(n in parts for n in needed)
+
+    def on_scene(self, msg):
+        with self.lock:
+            self.frame(msg.header.stamp)["scene"] = msg
+            self.flush()
+
+    def on_grasps(self, msg):
+        with self.lock:
+            self.frame(msg.header.stamp)["grasps"] = msg
+            self.flush()
+
+    def on_trajectory(self, msg):
+        with self.lock:
+            # The trajectory carries the stamp of the grasps it was planned for.
+            self.frame(msg.header.stamp)["trajectory"] = (msg, self.arm_status)
+            self.flush()
+
+    def on_arm_status(self, msg):
+        self.arm_status = msg.data
+
+    def flush(self):
+        for key in self.order:
+            parts = self.frames[key]
+            if parts.get("printed") or not self.complete(parts):
+                continue
+            parts["printed"] = True
+            print(self.describe(key, parts), flush=True)
+
+    def printed(self):
+        return sum(1 for p in self.frames.values() if p.get("printed"))
+
+    @staticmethod
+    def describe(key, parts):
+        lines = ["frame t=%.3f s" % (key * 1e-9)]
+        scene = parts.get("scene")
+        if scene is not None:
+            if scene.ok:
+                a, b, c, d = scene.table_plane
+                e = scene.object_extent
+                p = scene.object_centroid
+                lines.append("  table plane: %.4f x %+.4f y %+.4f z %+.4f = 0 (%d points)"
+                             % (a, b, c, d, scene.table_points))
+                lines.append("  object: %d points, centroid (%.3f, %.3f, %.3f) m, extent %.3f x %.3f x %.3f m"
+                             % (scene.object_points, p.x, p.y, p.z, e.x, e.y, e.z))
+            else:
+                lines.append("  segmentation failed: %s" % scene.status)
+        grasps = parts.get("grasps")
+        if grasps is not None:
+            if grasps.grasps:
+                g = grasps.grasps[0]
+                q = g.pose.orientation
+                lines.append("  grasp (%s, best of %d, %.2f ms): position (%.3f, %.3f, %.3f) m, "
+                             "orientation xyzw (%.3f, %.3f, %.3f, %.3f), width %.3f m, score %.3f"
+                             % (g.algorithm, len(grasps.grasps), grasps.compute_time_s * 1e3,
+                                g.pose.position.x, g.pose.position.y, g.pose.position.z,
+                                q.x, q.y, q.z, q.w, g.width_m, g.score))
+                metrics = [(name, getattr(g, name)) for name in
+                           ("force_balance_rad", "xoz_offset_m", "variance_m", "torque_offset_m", "gravity_offset_m")]
+                lines.append("    metrics: " + ", ".join("%s %.4f" % (n, v) for n, v in metrics if not math.isnan(v)))
+            else:
+                lines.append("  no grasp: %s" % grasps.status)
+        if "trajectory" in parts:
+            traj, status = parts["trajectory"]
+            duration = traj.points[-1].time_from_start.to_sec() if traj.points else 0.0
+            lines.append("  trajectory: %d waypoints, %.2f s; %s" % (len(traj.points), duration, status))
+        return "\n".join(lines)
+
+
+def main():
+    rospy.init_node("pipeline_report")
+    bag = rospy.get_param("~bag", "")
+    cloud_topic = rospy.get_param("~cloud_topic", "/camera/depth_registered/points")
+    timeout_s = rospy.get_param("~timeout_s", 60.0)
+    expected = count_frames(bag, cloud_topic) if bag else 0
+    report = Report()
+    rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10)
+    rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)
+    rospy.Subscriber("/arm_planner/status", String, report.on_arm_status, queue_size=10)
+    rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, report.on_trajectory, queue_size=10)
+    print("pipeline_report: waiting for %d frame(s) of %s" % (expected, bag or "the live camera"), flush=True)
+    # Wall-clock timeout: sim time stops when the bag ends.
+    import time
+    deadline = time.monotonic() + timeout_s
+    while not rospy.is_shutdown() and time.monotonic() < deadline:
+        if expected and report.printed() >= expected:
+            print("pipeline_report: all %d frame(s) reported" % expected, flush=True)
+            return
+        time.sleep(0.05)
+    with report.lock:
+        missing = [k for k in report.order if not report.frames[k].get("printed")]
+        for key in missing:
+            print(Report.describe(key, report.frames[key]) + "\n  (incomplete)", flush=True)
+    print("pipeline_report: timed out after %.0f s with %d of %d frame(s) reported"
+          % (timeout_s, report.printed(), expected), flush=True)
+
+
+if __name__ == "__main__":
+    main()

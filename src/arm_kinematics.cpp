@@ -1,0 +1,379 @@
+#include "fast_grasp/arm_kinematics.h"
+
+#include <kdl/chain.hpp>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace fast_grasp
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+
+Eigen::Isometry3d toEigen(const KDL::Frame& f)
+{
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r)
+  {
+    for (int c = 0; c < 3; ++c)
+      t.linear()(r, c) = f.M(r, c);
+    t.translation()(r) = f.p(r);
+  }
+  return t;
+}
+
+/// Orientation error as a rotation vector (axis * angle) taking `current` to `target`.
+Eigen::Vector3d rotationError(const Eigen::Matrix3d& target, const Eigen::Matrix3d& current)
+{
+  const Eigen::AngleAxisd aa(target * current.transpose());
+  return aa.axis() * aa.angle();
+}
+}  // namespace
+
+/// One chain segment, KDL-free: pose(q) = pre * joint(q) * post, the joint being a rotation
+/// about (or translation along) `axis` through the origin of the `pre` frame.
+struct ArmKinematics::Model
+{
+  enum class JointType
+  {
+    Fixed,
+    Revolute,
+    Prismatic
+  };
+  struct Segment
+  {
+    std::string link;
+    JointType type = JointType::Fixed;
+    int joint_index = -1;  // index into q for moving joints
+    Eigen::Isometry3d pre = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, in the pre frame
+    Eigen::Isometry3d post = Eigen::Isometry3d::Identity();
+  };
+  std::string urdf_xml;
+  std::string base_link;
+  std::string tip_link;
+  std::vector<Segment> segments;
+  std::vector<std::string> joint_names;
+  std::vector<std::string> link_names;  // base_link + one per segment
+  std::vector<int> moving_before;        // per link_names entry
+  std::vector<bool> continuous;          // per joint
+
+  /// Walks the chain; calls visit(segment_index, pose_after_segment, pose_before_joint).
+  template <typename Visit>
+  Eigen::Isometry3d walk(const Eigen::VectorXd& q, Visit&& visit) const
+  {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    for (std::size_t i = 0; i < segments.size(); ++i)
+    {
+      const Segment& s = segments[i];
+      const Eigen::Isometry3d before = t * s.pre;
+      Eigen::Isometry3d after = before;
+      if (s.type == JointType::Revolute)
+        after.linear() = before.linear() * Eigen::AngleAxisd(q[s.joint_index], s.axis).toRotationMatrix();
+      else if (s.type == JointType::Prismatic)
+        after.translation() += before.linear() * (s.axis * q[s.joint_index]);
+      t = after * s.post;
+      visit(i, t, before);
+    }
+    return t;
+  }
+};
+
+ArmKinematics ArmKinematics::fromUrdfFile(const std::string& urdf_path, const std::string& base_link,
+                                          const std::string& tip_link)
+{
+  std::ifstream in(urdf_path);
+  if (!in)
+    throw std::runtime_error("ArmKinematics: cannot open URDF file '" + urdf_path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return fromUrdfString(buffer.str(), base_link, tip_link);
+}
+
+ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const std::string& base_link,
+                                            const std::string& tip_link)
+{
+  const urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(urdf_xml);
+  if (!urdf_model)
+    throw std::runtime_error("ArmKinematics: the URDF does not parse");
+  KDL::Tree tree;
+  if (!kdl_parser::treeFromUrdfModel(*urdf_model, tree))
+    throw std::runtime_error("ArmKinematics: kdl_parser could not build a tree from the URDF");
+  KDL::Chain chain;
+  if (!tree.getChain(base_link, tip_link, chain))
+    throw std::runtime_error("ArmKinematics: no chain from '" + base_link + "' to '" + tip_link + "'");
+
+  auto model = std::make_shared<Model>();
+  model->urdf_xml = urdf_xml;
+  model->base_link = base_link;
+  model->tip_link = tip_link;
+  model->link_names.push_back(base_link);
+  model->moving_before.push_back(0);
+  ArmKinematics kin;
+  std::vector<double> lower, upper, velocity;
+  for (unsigned i = 0; i < chain.getNrOfSegments(); ++i)
+  {
+    const KDL::Segment& seg = chain.getSegment(i);
+    const KDL::Joint& joint = seg.getJoint();
+    Model::Segment s;
+    s.link = seg.getName();
+    // KDL: Segment::pose(q) = joint.pose(q) * f_tip, and the joint frame at q = 0 is a pure
+    // offset to the joint origin; recover f_tip so the walk needs no KDL at run time.
+    const KDL::Frame joint_zero = joint.pose(0.0);
+    const KDL::Frame f_tip = joint_zero.Inverse() * seg.getFrameToTip();
+    s.pre = toEigen(joint_zero);
+    s.post = toEigen(f_tip);
+    if (joint.getType() != KDL::Joint::None)
+    {
+      // KDL's axis is in the segment root frame; express it in the joint's (pre) frame.
+      const KDL::Vector axis_root = joint.JointAxis();
+      const Eigen::Vector3d axis(axis_root.x(), axis_root.y(), axis_root.z());
+      s.axis = (s.pre.linear().transpose() * axis).normalized();
+      const bool prismatic = joint.getType() == KDL::Joint::TransAxis || joint.getType() == KDL::Joint::TransX ||
+                             joint.getType() == KDL::Joint::TransY || joint.getType() == KDL::Joint::TransZ;
+      s.type = prismatic ? Model::JointType::Prismatic : Model::JointType::Revolute;
+      s.joint_index = static_cast<int>(model->joint_names.size());
+      model->joint_names.push_back(joint.getName());
+      const urdf::JointConstSharedPtr uj = urdf_model->getJoint(joint.getName());
+      const bool continuous = uj && uj->type == urdf::Joint::CONTINUOUS;
+      model->continuous.push_back(continuous);
+      double lo = -kPi, hi = kPi, vel = kPi;
+      if (uj && uj->limits)
+      {
+        if (!continuous)
+        {
+          lo = uj->limits->lower;
+          hi = uj->limits->upper;
+        }
+        if (uj->limits->velocity > 0.0)
+          vel = uj->limits->velocity;
+      }
+      lower.push_back(lo);
+      upper.push_back(hi);
+      velocity.push_back(vel);
+    }
+    model->segments.push_back(s);
+    model->link_names.push_back(s.link);
+    model->moving_before.push_back(static_cast<int>(model->joint_names.size()));
+  }
+  if (model->joint_names.empty())
+    throw std::runtime_error("ArmKinematics: the chain '" + base_link + "' -> '" + tip_link + "' has no moving joint");
+  kin.model_ = model;
+  kin.lower_rad_ = Eigen::Map<Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
+  kin.upper_rad_ = Eigen::Map<Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
+  kin.velocity_rad_s_ = Eigen::Map<Eigen::VectorXd>(velocity.data(), static_cast<Eigen::Index>(velocity.size()));
+  return kin;
+}
+
+std::size_t ArmKinematics::dof() const { return model_->joint_names.size(); }
+const std::vector<std::string>& ArmKinematics::jointNames() const { return model_->joint_names; }
+const std::string& ArmKinematics::baseLink() const { return model_->base_link; }
+const std::string& ArmKinematics::tipLink() const { return model_->tip_link; }
+const std::string& ArmKinematics::urdfXml() const { return model_->urdf_xml; }
+const std::vector<std::string>& ArmKinematics::linkNames() const { return model_->link_names; }
+int ArmKinematics::movingJointsBefore(std::size_t link_index) const { return model_->moving_before.at(link_index); }
+
+bool ArmKinematics::setJointLimits(const Eigen::VectorXd& lower_rad, const Eigen::VectorXd& upper_rad)
+{
+  if (lower_rad.size() != static_cast<Eigen::Index>(dof()) || upper_rad.size() != lower_rad.size() ||
+      !lower_rad.allFinite() || !upper_rad.allFinite() || (lower_rad.array() > upper_rad.array()).any())
+    return false;
+  lower_rad_ = lower_rad;
+  upper_rad_ = upper_rad;
+  return true;
+}
+
+bool ArmKinematics::setVelocityLimits(const Eigen::VectorXd& velocity_rad_s)
+{
+  if (velocity_rad_s.size() != static_cast<Eigen::Index>(dof()) || !velocity_rad_s.allFinite() ||
+      (velocity_rad_s.array() <= 0.0).any())
+    return false;
+  velocity_rad_s_ = velocity_rad_s;
+  return true;
+}
+
+bool ArmKinematics::withinLimits(const Eigen::VectorXd& q, double tolerance_rad) const
+{
+  if (q.size() != static_cast<Eigen::Index>(dof()) || !q.allFinite())
+    return false;
+  return ((q.array() >= lower_rad_.array() - tolerance_rad) && (q.array() <= upper_rad_.array() + tolerance_rad)).all();
+}
+
+Eigen::VectorXd ArmKinematics::randomConfiguration(std::mt19937& rng) const
+{
+  Eigen::VectorXd q(dof());
+  for (Eigen::Index j = 0; j < q.size(); ++j)
+    q[j] = std::uniform_real_distribution<double>(lower_rad_[j], upper_rad_[j])(rng);
+  return q;
+}
+
+Eigen::Isometry3d ArmKinematics::fk(const Eigen::VectorXd& q) const
+{
+  if (q.size() != static_cast<Eigen::Index>(dof()))
+  {
+    Eigen::Isometry3d nan;
+    nan.matrix().setConstant(std::numeric_limits<double>::quiet_NaN());
+    return nan;
+  }
+  return model_->walk(q, [](std::size_t, const Eigen::Isometry3d&, const Eigen::Isometry3d&) {});
+}
+
+void ArmKinematics::linkPoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
+{
+  poses.resize(model_->link_names.size());
+  poses[0] = Eigen::Isometry3d::Identity();
+  if (q.size() != static_cast<Eigen::Index>(dof()))
+    return;
+  model_->walk(q, [&poses](std::size_t i, const Eigen::Isometry3d& t, const Eigen::Isometry3d&) { poses[i + 1] = t; });
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> ArmKinematics::jacobian(const Eigen::VectorXd& q) const
+{
+  Eigen::Matrix<double, 6, Eigen::Dynamic> jac(6, static_cast<Eigen::Index>(dof()));
+  jac.setZero();
+  if (q.size() != static_cast<Eigen::Index>(dof()))
+    return jac;
+  // Joint axes and origins in the base frame, then columns relative to the tip position.
+  std::vector<Eigen::Vector3d> axes(dof()), origins(dof());
+  std::vector<bool> prismatic(dof(), false);
+  const Eigen::Isometry3d tip =
+      model_->walk(q, [&](std::size_t i, const Eigen::Isometry3d&, const Eigen::Isometry3d& before) {
+        const Model::Segment& s = model_->segments[i];
+        if (s.type == Model::JointType::Fixed)
+          return;
+        axes[s.joint_index] = before.linear() * s.axis;
+        origins[s.joint_index] = before.translation();
+        prismatic[s.joint_index] = s.type == Model::JointType::Prismatic;
+      });
+  for (std::size_t j = 0; j < dof(); ++j)
+  {
+    if (prismatic[j])
+      jac.col(j).head<3>() = axes[j];
+    else
+    {
+      jac.col(j).head<3>() = axes[j].cross(tip.translation() - origins[j]);
+      jac.col(j).tail<3>() = axes[j];
+    }
+  }
+  return jac;
+}
+
+void ArmKinematics::wrapIntoLimits(Eigen::VectorXd& q) const
+{
+  for (Eigen::Index j = 0; j < q.size() && j < lower_rad_.size(); ++j)
+  {
+    if (model_->segments.empty())
+      break;
+    if (!std::isfinite(q[j]))
+      continue;
+    if (q[j] >= lower_rad_[j] && q[j] <= upper_rad_[j])
+      continue;
+    // Smallest shift by a multiple of 2*pi that lands inside [lower, upper], if any.
+    const double shifted = lower_rad_[j] + std::fmod(std::fmod(q[j] - lower_rad_[j], 2.0 * kPi) + 2.0 * kPi, 2.0 * kPi);
+    if (shifted <= upper_rad_[j])
+      q[j] = shifted;
+  }
+}
+
+std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, const Eigen::VectorXd& seed,
+                                               const IkParams& params) const
+{
+  std::vector<Eigen::VectorXd> solutions;
+  const Eigen::Index n = static_cast<Eigen::Index>(dof());
+  if (!target.matrix().allFinite() || seed.size() != n || params.max_solutions < 1)
+    return solutions;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params.timeout_s));
+  std::mt19937 rng(params.random_seed);
+
+  const Eigen::Matrix3d target_rot = target.linear();
+  const Eigen::Vector3d target_pos = target.translation();
+  auto error = [&](const Eigen::VectorXd& q, Eigen::Matrix<double, 6, 1>& e) {
+    const Eigen::Isometry3d t = fk(q);
+    e.head<3>() = target_pos - t.translation();
+    e.tail<3>() = rotationError(target_rot, t.linear());
+  };
+  auto converged = [&](const Eigen::Matrix<double, 6, 1>& e) {
+    return e.head<3>().norm() < params.position_tolerance_m && e.tail<3>().norm() < params.orientation_tolerance_rad;
+  };
+  // Clamp into limits; revolute joints first try a +-2*pi wrap (keeps the step's direction).
+  auto project = [&](Eigen::VectorXd& q) {
+    wrapIntoLimits(q);
+    q = q.cwiseMax(lower_rad_).cwiseMin(upper_rad_);
+  };
+
+  Eigen::VectorXd seed_in_limits = seed;
+  if (!seed_in_limits.allFinite())
+    seed_in_limits = 0.5 * (lower_rad_ + upper_rad_);
+  project(seed_in_limits);
+
+  // Levenberg-Marquardt on the geometric Jacobian, with TRAC-IK's trick of restarting from
+  // a random joint vector as soon as progress stalls instead of iterating in a local minimum.
+  Eigen::Matrix<double, 6, 1> e, e_new;
+  Eigen::VectorXd q(n), q_new(n), dq(n);
+  bool first_attempt = true;
+  while (Clock::now() < deadline && static_cast<int>(solutions.size()) < params.max_solutions)
+  {
+    q = first_attempt ? seed_in_limits : randomConfiguration(rng);
+    first_attempt = false;
+    error(q, e);
+    double err2 = e.squaredNorm();
+    double lambda = 1e-4;
+    bool found = converged(e);
+    for (int it = 0; it < params.max_iterations_per_attempt && !found; ++it)
+    {
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> jac = jacobian(q);
+      Eigen::MatrixXd jtj = jac.transpose() * jac;
+      const Eigen::VectorXd jte = jac.transpose() * e;
+      bool improved = false;
+      for (int tries = 0; tries < 6 && !improved; ++tries)
+      {
+        Eigen::MatrixXd damped = jtj;
+        damped.diagonal().array() += lambda;
+        dq = damped.ldlt().solve(jte);
+        q_new = q + dq;
+        project(q_new);
+        error(q_new, e_new);
+        const double err2_new = e_new.squaredNorm();
+        if (err2_new < err2)
+        {
+          q = q_new;
+          e = e_new;
+          err2 = err2_new;
+          lambda = std::max(lambda * 0.1, 1e-9);
+          improved = true;
+        }
+        else
+          lambda *= 10.0;
+      }
+      found = converged(e);
+      if (!improved || (Clock::now() >= deadline))
+        break;  // stalled (joint limit or local minimum): restart elsewhere
+    }
+    if (!found || !withinLimits(q))
+      continue;
+    const bool duplicate = std::any_of(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& s) {
+      return (s - q).cwiseAbs().maxCoeff() < params.distinct_solution_rad;
+    });
+    if (!duplicate)
+      solutions.push_back(q);
+  }
+  std::sort(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return (a - seed_in_limits).squaredNorm() < (b - seed_in_limits).squaredNorm();
+  });
+  return solutions;
+}
+
+}  // namespace fast_grasp

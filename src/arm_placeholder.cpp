@@ -1,1 +1,0 @@
-// Replaced by the arm-planning sources; keeps the library target valid meanwhile.

@@ -1,0 +1,350 @@
+// fast_grasp/ArmPlanner: OctoMap scene + unseen space, FCL collision, KDL IK and OMPL,
+// tried best grasp first; publishes ~trajectory for external controllers and serves ~plan.
+// All planning logic lives in the ROS-free core (grasp_execution.h); this is the wrapper.
+#include "fast_grasp/PlanGrasp.h"
+#include "fast_grasp/SegmentedScene.h"
+#include "fast_grasp/grasp_execution.h"
+#include "fast_grasp/nodelets/grasp_conversions.h"
+#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/unseen_part.h"
+
+#include <nodelet/nodelet.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <pcl_ros/point_cloud.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <sensor_msgs/JointState.h>
+#include <trajectory_msgs/JointTrajectory.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+namespace fast_grasp
+{
+class ArmPlannerNodelet : public nodelet::Nodelet
+{
+  using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+  void onInit() override
+  {
+    nh_ = getNodeHandle();
+    private_nh_ = getPrivateNodeHandle();
+    status_.init(nh_, private_nh_, getName());
+    try
+    {
+      std::string arm_config, planners_config, urdf_file, robot_description;
+      private_nh_.param<std::string>("arm_config", arm_config, "");
+      private_nh_.param<std::string>("planners_config", planners_config, "");
+      params_ = loadGraspExecutionParams(arm_config, planners_config);
+      private_nh_.param<std::string>("urdf_file", urdf_file, params_.urdf_path);
+      private_nh_.param<std::string>("base_link", params_.base_link, params_.base_link);
+      private_nh_.param<std::string>("tip_link", params_.tip_link, params_.tip_link);
+      private_nh_.param<std::string>("planner", params_.motion.planner, params_.motion.planner);
+      // Prefer the robot model the rest of the system uses (robot_state_publisher's).
+      ArmKinematics kinematics = nh_.getParam("robot_description", robot_description) && !robot_description.empty() ?
+                                     ArmKinematics::fromUrdfString(robot_description, params_.base_link, params_.tip_link) :
+                                     ArmKinematics::fromUrdfFile(urdf_file, params_.base_link, params_.tip_link);
+      const std::string limits_problem = applyLimits(params_, kinematics);
+      if (!limits_problem.empty())
+        throw std::runtime_error(limits_problem);
+      collision_ = std::make_unique<RobotCollision>(kinematics, params_.link_padding_m);
+      std::vector<double> home;
+      private_nh_.param("home_joint_positions_rad", home, std::vector<double>{});
+      home_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kinematics.dof()));
+      if (home.size() == kinematics.dof())
+        home_ = Eigen::Map<const Eigen::VectorXd>(home.data(), static_cast<Eigen::Index>(home.size()));
+      else if (!home.empty())
+        throw std::runtime_error("home_joint_positions_rad has " + std::to_string(home.size()) + " entries, the chain " +
+                                 std::to_string(kinematics.dof()));
+    }
+    catch (const std::exception& e)
+    {
+      NODELET_FATAL("Initialization failed: %s", e.what());
+      status_.error(std::string("initialization failed: ") + e.what());
+      return;
+    }
+    trajectory_pub_ = private_nh_.advertise<trajectory_msgs::JointTrajectory>("trajectory", 2);
+    markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+    plan_service_ = private_nh_.advertiseService("plan", &ArmPlannerNodelet::planService, this);
+    joint_sub_ = nh_.subscribe("joint_states", 5, &ArmPlannerNodelet::jointCallback, this);
+    scene_info_sub_ = nh_.subscribe("segmented_scene", 5, &ArmPlannerNodelet::sceneInfoCallback, this);
+    scene_sub_ = nh_.subscribe<Cloud>("scene", 2, &ArmPlannerNodelet::sceneCallback, this);
+    object_sub_ = nh_.subscribe<Cloud>("object", 2, &ArmPlannerNodelet::objectCallback, this);
+    grasps_sub_ = nh_.subscribe("grasps", 2, &ArmPlannerNodelet::graspsCallback, this);
+  }
+
+  // Latest inputs, keyed by stamp so the grasps are planned against the scene they came from.
+  struct SceneInputs
+  {
+    boost::shared_ptr<const Cloud> scene;
+    boost::shared_ptr<const Cloud> object;
+    fast_grasp::SegmentedScene::ConstPtr info;
+  };
+
+  SceneInputs& inputsAt(const ros::Time& stamp)
+  {
+    // Keep the last few frames only; a new stamp older than all of them is dropped at once.
+    inputs_[stamp];
+    while (inputs_.size() > kKeptFrames)
+      inputs_.erase(inputs_.begin());
+    return inputs_[stamp];
+  }
+  static constexpr std::size_t kKeptFrames = 8;
+
+  void jointCallback(const sensor_msgs::JointState::ConstPtr& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    latest_joints_ = msg;
+  }
+  void sceneInfoCallback(const fast_grasp::SegmentedScene::ConstPtr& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    inputsAt(msg->header.stamp).info = msg;
+  }
+  void sceneCallback(const boost::shared_ptr<const Cloud>& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    inputsAt(pcl_conversions::fromPCL(msg->header).stamp).scene = msg;
+  }
+  void objectCallback(const boost::shared_ptr<const Cloud>& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    inputsAt(pcl_conversions::fromPCL(msg->header).stamp).object = msg;
+  }
+
+  /// Start state from a JointState message in chain order; empty message = latest
+  /// /joint_states, else the home pose. Empty string on success, else why not.
+  std::string startState(const sensor_msgs::JointState& given, Eigen::VectorXd& start)
+  {
+    const auto& names = collision_->kinematics().jointNames();
+    sensor_msgs::JointState::ConstPtr latest;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      latest = latest_joints_;
+    }
+    const sensor_msgs::JointState* source = !given.name.empty() ? &given : latest.get();
+    start = home_;
+    if (!source)
+      return "";
+    for (std::size_t j = 0; j < names.size(); ++j)
+    {
+      const auto it = std::find(source->name.begin(), source->name.end(), names[j]);
+      if (it == source->name.end() || static_cast<std::size_t>(it - source->name.begin()) >= source->position.size())
+        return "start state lacks joint '" + names[j] + "'";
+      start[static_cast<Eigen::Index>(j)] = source->position[static_cast<std::size_t>(it - source->name.begin())];
+    }
+    if (!start.allFinite())
+      return "start state has non-finite joint positions";
+    return "";
+  }
+
+  /// Plans against the scene stored for `stamp` (or the newest). Fills `result`.
+  GraspPlanResult plan(const fast_grasp::GraspArray& grasps, const sensor_msgs::JointState& start_msg)
+  {
+    GraspPlanResult result;
+    Eigen::VectorXd start;
+    const std::string start_problem = startState(start_msg, start);
+    if (!start_problem.empty())
+    {
+      result.status = start_problem;
+      return result;
+    }
+    SceneInputs inputs;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      auto it = inputs_.find(grasps.header.stamp);
+      if (it != inputs_.end())
+        inputs = it->second;
+      else if (!inputs_.empty())
+        inputs = inputs_.rbegin()->second;  // a ~plan request without a matching frame
+    }
+    std::vector<GraspCandidate> candidates;
+    for (const auto& g : grasps.grasps)
+      candidates.push_back(fromMsg(g));
+
+    std::lock_guard<std::mutex> planning(planning_mutex_);  // one RobotCollision scene at a time
+    collision_->resetScene(params_.octomap_resolution_m);
+    std::ostringstream scene_note;
+    if (inputs.scene && !inputs.scene->empty())
+      scene_note << collision_->addObstacleCloud(*inputs.scene, start, params_.self_filter_padding_m)
+                 << " scene points";
+    else
+      scene_note << "no scene cloud";
+    if (inputs.object && !inputs.object->empty())
+    {
+      collision_->setTargetCloud(*inputs.object);
+      // The space hidden behind the object is an obstacle too: the arm must never sweep
+      // through what the camera could not see (thesis Ch6, Eq. 6.8).
+      if (inputs.info && inputs.info->ok)
+      {
+        const auto& o = inputs.info->sensor_origin;
+        const Eigen::Vector4f plane(inputs.info->table_plane[0], inputs.info->table_plane[1],
+                                    inputs.info->table_plane[2], inputs.info->table_plane[3]);
+        const UnseenPart unseen = buildUnseenPart(*inputs.object, { Eigen::Vector3f(o.x, o.y, o.z) }, unseen_params_,
+                                                  std::optional<Eigen::Vector4f>(plane));
+        if (unseen.ok())
+          scene_note << ", " << collision_->addObstacleCloud(unseen.points, start, params_.self_filter_padding_m)
+                     << " unseen-part points";
+      }
+    }
+    result = planGraspMotion(*collision_, start, candidates, params_);
+    result.status += " (" + scene_note.str() + ")";
+    return result;
+  }
+
+  trajectory_msgs::JointTrajectory toTrajectoryMsg(const GraspPlanResult& result, const std_msgs::Header& header) const
+  {
+    trajectory_msgs::JointTrajectory traj;
+    traj.header = header;
+    traj.joint_names = result.joint_names;
+    for (const auto& p : result.points)
+    {
+      trajectory_msgs::JointTrajectoryPoint point;
+      point.positions.assign(p.positions.data(), p.positions.data() + p.positions.size());
+      point.velocities.assign(p.velocities.data(), p.velocities.data() + p.velocities.size());
+      point.accelerations.assign(p.accelerations.data(), p.accelerations.data() + p.accelerations.size());
+      point.time_from_start = ros::Duration(p.time_from_start_s);
+      traj.points.push_back(point);
+    }
+    return traj;
+  }
+
+  std::string summary(const GraspPlanResult& result) const
+  {
+    std::ostringstream text;
+    if (result.success)
+      text << "grasp " << result.grasp_index << ": " << result.points.size() << " waypoints, "
+           << (result.points.empty() ? 0.0 : result.points.back().time_from_start_s) << " s, planner "
+           << result.planner << ", " << result.planning_time_s * 1e3 << " ms";
+    else
+      text << "no plan: " << result.status;
+    for (const auto& skipped : result.skipped_reasons)
+      text << "; skipped " << skipped;
+    return text.str();
+  }
+
+  void graspsCallback(const fast_grasp::GraspArray::ConstPtr& grasps)
+  {
+    if (!collision_)
+      return status_.error("not initialised (see the log)");
+    if (grasps->grasps.empty())
+      return status_.warn("no grasp to plan for: " + grasps->status);
+    try
+    {
+      const GraspPlanResult result = plan(*grasps, sensor_msgs::JointState());
+      std_msgs::Header header = grasps->header;
+      if (result.success)
+      {
+        trajectory_pub_.publish(toTrajectoryMsg(result, header));
+        status_.ok(summary(result));
+      }
+      else
+      {
+        status_.warn(summary(result));
+      }
+      publishMarkers(result, header);
+    }
+    catch (const std::exception& e)
+    {
+      status_.error(std::string("planning failed: ") + e.what());
+    }
+  }
+
+  bool planService(fast_grasp::PlanGrasp::Request& req, fast_grasp::PlanGrasp::Response& res)
+  {
+    // Expected outcomes (no grasp reachable) are a status in the response, not a failed call.
+    if (!collision_)
+    {
+      res.status = "not initialised";
+      return true;
+    }
+    try
+    {
+      const GraspPlanResult result = plan(req.grasps, req.start_state);
+      res.success = result.success;
+      res.status = summary(result);
+      res.grasp_index = result.grasp_index;
+      res.planner = result.planner;
+      res.planning_time_s = result.planning_time_s;
+      if (result.success)
+      {
+        res.trajectory = toTrajectoryMsg(result, req.grasps.header);
+        trajectory_pub_.publish(res.trajectory);
+      }
+    }
+    catch (const std::exception& e)
+    {
+      res.success = false;
+      res.status = std::string("planning failed: ") + e.what();
+    }
+    return true;
+  }
+
+  void publishMarkers(const GraspPlanResult& result, const std_msgs::Header& header)
+  {
+    if (markers_pub_.getNumSubscribers() == 0)
+      return;
+    visualization_msgs::MarkerArray array;
+    visualization_msgs::Marker voxels;
+    voxels.header = header;
+    voxels.ns = "octomap";
+    voxels.type = visualization_msgs::Marker::CUBE_LIST;
+    voxels.pose.orientation.w = 1.0;
+    voxels.scale.x = voxels.scale.y = voxels.scale.z = collision_->octomapResolution();
+    voxels.color.r = 0.3f;
+    voxels.color.g = 0.6f;
+    voxels.color.b = 1.0f;
+    voxels.color.a = 0.5f;
+    for (const auto& c : collision_->occupiedVoxelCentres())
+    {
+      geometry_msgs::Point p;
+      p.x = c.x();
+      p.y = c.y();
+      p.z = c.z();
+      voxels.points.push_back(p);
+    }
+    array.markers.push_back(voxels);
+    visualization_msgs::Marker path;
+    path.header = header;
+    path.ns = "tool_path";
+    path.type = visualization_msgs::Marker::LINE_STRIP;
+    path.pose.orientation.w = 1.0;
+    path.scale.x = 0.005;
+    path.color.g = 1.0f;
+    path.color.a = 1.0f;
+    for (const auto& q : result.waypoints)
+    {
+      const Eigen::Vector3d t = collision_->kinematics().fk(q).translation();
+      geometry_msgs::Point p;
+      p.x = t.x();
+      p.y = t.y();
+      p.z = t.z();
+      path.points.push_back(p);
+    }
+    if (path.points.size() < 2)
+      path.action = visualization_msgs::Marker::DELETE;
+    array.markers.push_back(path);
+    markers_pub_.publish(array);
+  }
+
+  ros::NodeHandle nh_, private_nh_;
+  NodeletStatus status_;
+  ros::Publisher trajectory_pub_, markers_pub_;
+  ros::ServiceServer plan_service_;
+  ros::Subscriber joint_sub_, scene_info_sub_, scene_sub_, object_sub_, grasps_sub_;
+  GraspExecutionParams params_;
+  UnseenPartParams unseen_params_;
+  std::unique_ptr<RobotCollision> collision_;
+  Eigen::VectorXd home_;
+  std::mutex mutex_;
+  std::mutex planning_mutex_;
+  sensor_msgs::JointState::ConstPtr latest_joints_;
+  std::map<ros::Time, SceneInputs> inputs_;
+};
+
+}  // namespace fast_grasp
+
+PLUGINLIB_EXPORT_CLASS(fast_grasp::ArmPlannerNodelet, nodelet::Nodelet)

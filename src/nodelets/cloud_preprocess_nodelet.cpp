@@ -1,0 +1,217 @@
+// fast_grasp/CloudPreprocess: raw organised camera cloud -> reach-filtered, voxelised cloud in
+// the base frame (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around preprocessCloud().
+#include "fast_grasp/cloud_preprocess.h"
+#include "fast_grasp/nodelets/nodelet_status.h"
+
+#include <nodelet_topic_tools/nodelet_lazy.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <pcl_ros/point_cloud.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/UInt64.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+class CloudPreprocessNodelet : public nodelet_topic_tools::NodeletLazy
+{
+private:
+  void onInit() override;
+  void subscribe() override;
+  void unsubscribe() override;
+  void cloudCallback(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void process(const sensor_msgs::PointCloud2& msg);
+  /// Structural checks on the message, before any conversion; empty string when usable.
+  std::string checkMessage(const sensor_msgs::PointCloud2& msg) const;
+
+  PreprocessParams params_;
+  std::string base_frame_ = "base_link";
+  double tf_timeout_s_ = 0.2;
+  bool publish_address_ = false;
+  bool params_ok_ = false;
+
+  NodeletStatus status_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  ros::Subscriber cloud_sub_;
+  ros::Publisher output_pub_;
+  ros::Publisher sent_address_pub_;
+};
+
+void CloudPreprocessNodelet::onInit()
+{
+  NodeletLazy::onInit();
+  ros::NodeHandle& pnh = *pnh_;
+  pnh.param("base_frame", base_frame_, base_frame_);
+  pnh.param("reach_m", params_.reach_m, params_.reach_m);
+  std::vector<double> reach_centre{ 0.0, 0.0, 0.0 };
+  pnh.param("reach_centre_m", reach_centre, reach_centre);
+  pnh.param("min_z_m", params_.min_z_m, -10.0);
+  pnh.param("max_z_m", params_.max_z_m, 10.0);
+  pnh.param("leaf_size_m", params_.leaf_size_m, params_.leaf_size_m);
+  pnh.param("pixel_stride", params_.pixel_stride, params_.pixel_stride);
+  int max_input_points = static_cast<int>(params_.max_input_points);
+  pnh.param("max_input_points", max_input_points, max_input_points);
+  pnh.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
+  pnh.param("publish_address", publish_address_, publish_address_);
+
+  status_.init(*nh_, pnh, getName());
+  std::string bad;
+  if (reach_centre.size() != 3)
+    bad = "reach_centre_m must have 3 elements";
+  else if (max_input_points < 1)
+    bad = "max_input_points must be >= 1";
+  else if (base_frame_.empty())
+    bad = "base_frame must not be empty";
+  else if (!(tf_timeout_s_ >= 0.0))
+    bad = "tf_timeout_s must be >= 0";
+  if (bad.empty())
+  {
+    params_.reach_centre_m = Eigen::Vector3d(reach_centre[0], reach_centre[1], reach_centre[2]).cast<float>();
+    params_.max_input_points = static_cast<std::size_t>(max_input_points);
+    // The core validates the rest; probe it with a one-point cloud.
+    pcl::PointCloud<pcl::PointXYZ> probe;
+    probe.push_back(pcl::PointXYZ(0.0f, 0.0f, 0.0f));
+    const PreprocessResult check = preprocessCloud(probe, Eigen::Isometry3f::Identity(), params_);
+    if (check.reason.rfind("invalid parameters", 0) == 0)
+      bad = check.reason;
+  }
+  params_ok_ = bad.empty();
+  if (!params_ok_)
+  {
+    NODELET_ERROR("Initialization failed: %s", bad.c_str());
+    status_.error("initialization failed: " + bad);
+    return;
+  }
+  NODELET_DEBUG("reach_m %.3f, leaf_size_m %.4f, pixel_stride %d, max_input_points %zu, base_frame %s",
+                params_.reach_m, params_.leaf_size_m, params_.pixel_stride, params_.max_input_points,
+                base_frame_.c_str());
+
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
+  output_pub_ = advertise<pcl::PointCloud<pcl::PointXYZ>>(pnh, "output", 1);
+  if (publish_address_)
+    sent_address_pub_ = pnh.advertise<std_msgs::UInt64>("sent_address", 10);
+  onInitPostProcess();
+}
+
+void CloudPreprocessNodelet::subscribe()
+{
+  if (params_ok_)
+    cloud_sub_ = nh_->subscribe("input", 1, &CloudPreprocessNodelet::cloudCallback, this);
+}
+
+void CloudPreprocessNodelet::unsubscribe()
+{
+  cloud_sub_.shutdown();
+}
+
+std::string CloudPreprocessNodelet::checkMessage(const sensor_msgs::PointCloud2& msg) const
+{
+  const std::size_t points = static_cast<std::size_t>(msg.width) * msg.height;
+  std::ostringstream why;
+  if (points == 0)
+    return "empty cloud (0 points)";
+  if (points > params_.max_input_points)
+  {
+    why << "cloud too large: " << points << " points (" << msg.width << "x" << msg.height
+        << ") exceeds max_input_points " << params_.max_input_points;
+    return why.str();
+  }
+  if (static_cast<std::size_t>(msg.row_step) * msg.height != msg.data.size() ||
+      static_cast<std::size_t>(msg.point_step) * msg.width > msg.row_step)
+  {
+    why << "malformed cloud: " << msg.data.size() << " data bytes for " << msg.height << " rows of " << msg.row_step
+        << " bytes (point_step " << msg.point_step << ")";
+    return why.str();
+  }
+  for (const char* axis : { "x", "y", "z" })
+  {
+    bool found = false;
+    for (const auto& field : msg.fields)
+      found = found || (field.name == axis && field.datatype == sensor_msgs::PointField::FLOAT32);
+    if (!found)
+      return std::string("missing FLOAT32 field '") + axis + "'";
+  }
+  if (msg.header.frame_id.empty())
+    return "empty frame_id";
+  return {};
+}
+
+void CloudPreprocessNodelet::cloudCallback(const sensor_msgs::PointCloud2::ConstPtr& msg)
+{
+  // Exceptions must not escape into the nodelet manager's callback queue.
+  try
+  {
+    process(*msg);
+  }
+  catch (const std::exception& e)
+  {
+    NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
+    status_.error(std::string("unexpected exception: ") + e.what());
+  }
+}
+
+void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
+{
+  if (const std::string bad = checkMessage(msg); !bad.empty())
+  {
+    NODELET_ERROR_THROTTLE(5.0, "rejected input: %s", bad.c_str());
+    status_.error(bad);
+    return;
+  }
+  Eigen::Isometry3d camera_to_base;
+  try
+  {
+    const auto transform = tf_buffer_.lookupTransform(base_frame_, msg.header.frame_id, msg.header.stamp,
+                                                      ros::Duration(tf_timeout_s_));
+    camera_to_base = tf2::transformToEigen(transform);
+  }
+  catch (const tf2::TransformException& e)
+  {
+    const std::string why = "no transform from '" + msg.header.frame_id + "' to '" + base_frame_ + "': " + e.what();
+    NODELET_ERROR_THROTTLE(5.0, "%s", why.c_str());
+    status_.error(why);
+    return;
+  }
+  // Colour is not used downstream: converting to XYZ halves the copy (16 vs 32 bytes a point).
+  pcl::PointCloud<pcl::PointXYZ> raw;
+  pcl::fromROSMsg(msg, raw);
+  PreprocessResult result = preprocessCloud(raw, camera_to_base.cast<float>(), params_);
+  if (!result.ok)
+  {
+    NODELET_WARN_THROTTLE(5.0, "%s", result.reason.c_str());
+    status_.error(result.reason);
+    return;
+  }
+  result.cloud->header.frame_id = base_frame_;
+  result.cloud->header.stamp = pcl_conversions::toPCL(msg.header.stamp);
+  // Zero-copy hand-over: the boost pointer roscpp needs shares ownership with the core's
+  // std::shared_ptr instead of copying the cloud.
+  const CloudXYZ::Ptr cloud = result.cloud;
+  const boost::shared_ptr<CloudXYZ> output(cloud.get(), [cloud](CloudXYZ*) {});
+  output_pub_.publish(output);
+  if (publish_address_)
+  {
+    std_msgs::UInt64 address;
+    address.data = reinterpret_cast<std::uintptr_t>(output.get());
+    sent_address_pub_.publish(address);
+  }
+  std::ostringstream summary;
+  summary << raw.size() << " raw points (" << result.finite_points << " finite, " << result.in_reach_points
+          << " sampled in reach) -> " << output->size() << " points in " << base_frame_;
+  if (result.infinite_points > 0)
+    status_.warn(summary.str() + "; " + result.reason);
+  else
+    status_.ok(summary.str());
+}
+
+}  // namespace fast_grasp
+
+PLUGINLIB_EXPORT_CLASS(fast_grasp::CloudPreprocessNodelet, nodelet::Nodelet)

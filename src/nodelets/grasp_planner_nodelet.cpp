@@ -1,0 +1,265 @@
+#include "fast_grasp/nodelets/grasp_planner_nodelet.h"
+
+#include "fast_grasp/cloud_checks.h"
+#include "fast_grasp/nodelets/grasp_conversions.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <algorithm>
+#include <sstream>
+
+namespace fast_grasp
+{
+namespace
+{
+std_msgs::ColorRGBA colour(float r, float g, float b, float a = 1.0f)
+{
+  std_msgs::ColorRGBA c;
+  c.r = r;
+  c.g = g;
+  c.b = b;
+  c.a = a;
+  return c;
+}
+
+visualization_msgs::Marker pointsMarker(const CloudXYZ& cloud, const std::string& ns, const std_msgs::ColorRGBA& c,
+                                        double size_m)
+{
+  visualization_msgs::Marker m;
+  m.ns = ns;
+  m.type = visualization_msgs::Marker::POINTS;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = size_m;
+  m.color = c;
+  m.points.reserve(cloud.size());
+  for (const auto& p : cloud.points)
+  {
+    geometry_msgs::Point q;
+    q.x = p.x;
+    q.y = p.y;
+    q.z = p.z;
+    m.points.push_back(q);
+  }
+  return m;
+}
+
+visualization_msgs::Marker boxInGraspFrame(const GraspCandidate& grasp, const Eigen::Vector3d& centre,
+                                           const Eigen::Vector3d& size, const std::string& ns, int id,
+                                           const std_msgs::ColorRGBA& c)
+{
+  visualization_msgs::Marker m;
+  m.ns = ns;
+  m.id = id;
+  m.type = visualization_msgs::Marker::CUBE;
+  Eigen::Isometry3d pose = grasp.pose;
+  pose.translation() = grasp.pose * centre;
+  m.pose = tf2::toMsg(pose);
+  m.scale.x = size.x();
+  m.scale.y = size.y();
+  m.scale.z = size.z();
+  m.color = c;
+  return m;
+}
+}  // namespace
+
+void GraspPlannerNodelet::onInit()
+{
+  nh_ = getNodeHandle();
+  private_nh_ = getPrivateNodeHandle();
+  status_.init(nh_, private_nh_, getName());
+
+  std::string gripper_file;
+  private_nh_.param<std::string>("gripper_file", gripper_file, "");
+  try
+  {
+    gripper_ = loadGripperModel(gripper_file);
+  }
+  catch (const std::exception& e)
+  {
+    // A planner without a gripper cannot serve anything: say why, loudly, and stay idle.
+    NODELET_FATAL("Initialization failed: %s", e.what());
+    status_.error(std::string("initialization failed: ") + e.what());
+    return;
+  }
+  private_nh_.param("sensor_frames", sensor_frames_, std::vector<std::string>{});
+  private_nh_.param("tf_timeout_s", tf_timeout_s_, 0.1);
+  private_nh_.param("max_input_points", max_input_points_, 200000);
+  private_nh_.param("max_marker_candidates", max_marker_candidates_, 100);
+  planner_ = makePlanner(private_nh_);
+
+  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
+  grasps_pub_ = private_nh_.advertise<fast_grasp::GraspArray>("grasps", 5);
+  markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  scene_sub_ = nh_.subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
+  cloud_sub_ = nh_.subscribe<InputCloud>("cloud_in", 2, &GraspPlannerNodelet::cloudCallback, this);
+  NODELET_DEBUG("%s ready: gripper %s (max opening %.3f m)", planner_->name(), gripper_.name.c_str(),
+                gripper_.max_opening_m);
+}
+
+void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene)
+{
+  if (!scene->ok)
+    return;
+  Eigen::Vector4f plane(scene->table_plane[0], scene->table_plane[1], scene->table_plane[2], scene->table_plane[3]);
+  if (!plane.allFinite() || plane.head<3>().norm() < 0.5f)
+    return;
+  std::lock_guard<std::mutex> lock(scene_mutex_);
+  table_plane_ = plane;
+  has_table_plane_ = true;
+}
+
+std::string GraspPlannerNodelet::lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins)
+{
+  origins.clear();
+  const ros::Time stamp = pcl_conversions::fromPCL(cloud.header).stamp;
+  for (const auto& frame : sensor_frames_)
+  {
+    try
+    {
+      const geometry_msgs::TransformStamped t =
+          tf_buffer_->lookupTransform(cloud.header.frame_id, frame, stamp, ros::Duration(tf_timeout_s_));
+      origins.emplace_back(t.transform.translation.x, t.transform.translation.y, t.transform.translation.z);
+    }
+    catch (const tf2::TransformException& e)
+    {
+      return "no transform from sensor frame '" + frame + "' to '" + cloud.header.frame_id + "': " + e.what();
+    }
+  }
+  if (origins.empty())
+  {
+    const Eigen::Vector3f origin = cloud.sensor_origin_.head<3>();
+    // A zero origin means nobody upstream set it (pcl_ros serialisation drops it across
+    // processes): better to refuse than to orient the object frame from the base.
+    if (!origin.allFinite() || origin.isZero())
+      return "cloud has no sensor origin and ~sensor_frames is empty";
+    origins.push_back(origin);
+  }
+  return "";
+}
+
+void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud>& cloud)
+{
+  if (!planner_)
+  {
+    status_.error("not initialised (see the log)");
+    return;
+  }
+  std_msgs::Header header;
+  if (cloud)
+    header = pcl_conversions::fromPCL(cloud->header);
+  fast_grasp::GraspArray failure_msg;
+  failure_msg.header = header;
+  auto publishFailure = [&](const std::string& why) {
+    failure_msg.status = why;
+    grasps_pub_.publish(failure_msg);
+    status_.error(why);
+  };
+  try
+  {
+    // Zero-copy: the PCL-side shared pointer shares ownership with the boost one.
+    const CloudNormal::ConstPtr input(cloud.get(), [keep = cloud](const CloudNormal*) mutable { keep.reset(); });
+    const CloudCheck check = checkCloud<PointNormal>(input, static_cast<std::size_t>(max_input_points_));
+    if (!check.ok)
+      return publishFailure("EmptyInput: " + check.reason);
+    if (cloud->header.frame_id.empty())
+      return publishFailure("DegenerateInput: cloud has an empty frame_id");
+
+    ObjectView view;
+    view.cloud = input;
+    const std::string origin_problem = lookUpSensorOrigins(*cloud, view.sensor_origins);
+    if (!origin_problem.empty())
+      return publishFailure("MissingTransform: " + origin_problem);
+    {
+      std::lock_guard<std::mutex> lock(scene_mutex_);
+      view.has_table_plane = has_table_plane_;
+      view.table_plane = table_plane_;
+    }
+
+    const GraspResult result = planner_->plan(view, gripper_);
+    grasps_pub_.publish(toMsg(result, header));
+    publishMarkers(result, header);
+    publishExtras(result, header);
+    std::ostringstream summary;
+    if (result.ok())
+    {
+      const GraspCandidate& best = result.grasps.front();
+      summary << result.grasps.size() << " grasps from " << check.finite_points << " points in "
+              << result.compute_time_s * 1e3 << " ms; best width " << best.width_m << " m, score " << best.score;
+      status_.ok(summary.str());
+    }
+    else
+    {
+      status_.warn(statusText(result));
+    }
+  }
+  catch (const std::exception& e)
+  {
+    publishFailure(std::string("InternalError: ") + e.what());
+  }
+}
+
+void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_msgs::Header& header)
+{
+  if (markers_pub_.getNumSubscribers() == 0)
+    return;
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker clear;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  array.markers.push_back(clear);
+
+  array.markers.push_back(pointsMarker(result.hull, "hull", colour(0.1f, 0.9f, 0.1f), 0.004));
+  array.markers.push_back(pointsMarker(result.graspable_zone, "graspable_zone", colour(0.1f, 0.3f, 1.0f), 0.006));
+  array.markers.push_back(pointsMarker(result.unseen, "unseen_part", colour(0.5f, 0.5f, 0.5f, 0.4f), 0.004));
+
+  // Candidates as arrows along their approach, red (worst) to green (best).
+  const std::size_t shown = std::min<std::size_t>(result.candidates.size(), static_cast<std::size_t>(max_marker_candidates_));
+  double lo = 0.0, hi = 1.0;
+  if (shown > 0)
+  {
+    const auto range = std::minmax_element(result.candidates.begin(), result.candidates.begin() + shown,
+                                           [](const GraspCandidate& a, const GraspCandidate& b) { return a.score < b.score; });
+    lo = range.first->score;
+    hi = range.second->score;
+  }
+  for (std::size_t i = 0; i < shown; ++i)
+  {
+    const GraspCandidate& g = result.candidates[i];
+    visualization_msgs::Marker arrow;
+    arrow.ns = "candidates";
+    arrow.id = static_cast<int>(i);
+    arrow.type = visualization_msgs::Marker::ARROW;
+    arrow.pose.orientation.w = 1.0;
+    arrow.scale.x = 0.003;
+    arrow.scale.y = 0.006;
+    arrow.scale.z = 0.01;
+    const float t = hi > lo ? static_cast<float>((g.score - lo) / (hi - lo)) : 1.0f;
+    arrow.color = colour(1.0f - t, t, 0.1f, 0.8f);
+    arrow.points = { tf2::toMsg(Eigen::Vector3d(g.position() - 0.06 * g.approach())), tf2::toMsg(g.position()) };
+    array.markers.push_back(arrow);
+  }
+
+  // The chosen grasp, drawn as the gripper: two fingers and the palm in the grasp frame.
+  if (result.ok())
+  {
+    const GraspCandidate& best = result.grasps.front();
+    const double half_gap = 0.5 * std::min(gripper_.max_opening_m, best.width_m + 0.02);
+    const Eigen::Vector3d finger(gripper_.finger_depth_m, gripper_.finger_thickness_m, gripper_.finger_width_m);
+    const auto blue = colour(0.2f, 0.4f, 1.0f, 0.7f);
+    const double y = half_gap + 0.5 * gripper_.finger_thickness_m;
+    array.markers.push_back(boxInGraspFrame(best, Eigen::Vector3d(0, y, 0), finger, "gripper", 0, blue));
+    array.markers.push_back(boxInGraspFrame(best, Eigen::Vector3d(0, -y, 0), finger, "gripper", 1, blue));
+    const double palm_x = -0.5 * gripper_.finger_depth_m - 0.5 * gripper_.palm_thickness_m;
+    array.markers.push_back(boxInGraspFrame(
+        best, Eigen::Vector3d(palm_x, 0, 0),
+        Eigen::Vector3d(gripper_.palm_thickness_m, 2 * y + gripper_.finger_thickness_m, gripper_.finger_width_m * 2),
+        "gripper", 2, blue));
+  }
+  for (auto& m : array.markers)
+    m.header = header;
+  markers_pub_.publish(array);
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,241 @@
+// fast_grasp/TableSegmentation: RANSAC table, clusters above it, target object choice
+// (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around segmentTable().
+#include "fast_grasp/cloud_checks.h"
+#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/table_segmentation.h"
+
+#include <fast_grasp/SegmentedScene.h>
+#include <nodelet_topic_tools/nodelet_lazy.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <pcl_ros/point_cloud.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <std_msgs/UInt64.h>
+
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+namespace
+{
+/// Shares ownership with the core's std::shared_ptr: roscpp publishes boost pointers.
+boost::shared_ptr<CloudXYZ> toBoost(const CloudXYZ::Ptr& cloud)
+{
+  return boost::shared_ptr<CloudXYZ>(cloud.get(), [cloud](CloudXYZ*) {});
+}
+
+bool readVector3(ros::NodeHandle& pnh, const std::string& name, Eigen::Vector3f& value, std::string& bad)
+{
+  std::vector<double> v{ value.x(), value.y(), value.z() };
+  pnh.param(name, v, v);
+  if (v.size() != 3)
+  {
+    bad = name + " must have 3 elements";
+    return false;
+  }
+  value = Eigen::Vector3d(v[0], v[1], v[2]).cast<float>();
+  return true;
+}
+}  // namespace
+
+class TableSegmentationNodelet : public nodelet_topic_tools::NodeletLazy
+{
+private:
+  using CloudConstPtr = boost::shared_ptr<const CloudXYZ>;
+  void onInit() override;
+  void subscribe() override;
+  void unsubscribe() override;
+  void cloudCallback(const CloudConstPtr& msg);
+  void process(const CloudConstPtr& msg);
+  void publishScene(const CloudXYZ& input, const TableSegmentationResult& result, const std::string& status);
+
+  TableSegmentationParams params_;
+  int max_input_points_ = 2000000;
+  bool publish_address_ = false;
+  bool params_ok_ = false;
+
+  NodeletStatus status_;
+  ros::Subscriber cloud_sub_;
+  ros::Publisher object_pub_;
+  ros::Publisher scene_pub_;
+  ros::Publisher table_pub_;
+  ros::Publisher segmented_scene_pub_;
+  ros::Publisher received_address_pub_;
+  ros::Publisher sent_address_pub_;
+};
+
+void TableSegmentationNodelet::onInit()
+{
+  NodeletLazy::onInit();
+  ros::NodeHandle& pnh = *pnh_;
+  pnh.param("plane_distance_m", params_.plane_distance_m, params_.plane_distance_m);
+  pnh.param("ransac_max_iterations", params_.ransac_max_iterations, params_.ransac_max_iterations);
+  pnh.param("max_table_tilt_rad", params_.max_table_tilt_rad, params_.max_table_tilt_rad);
+  pnh.param("min_table_points", params_.min_table_points, params_.min_table_points);
+  pnh.param("min_height_above_table_m", params_.min_height_above_table_m, params_.min_height_above_table_m);
+  pnh.param("cluster_tolerance_m", params_.cluster_tolerance_m, params_.cluster_tolerance_m);
+  pnh.param("min_cluster_points", params_.min_cluster_points, params_.min_cluster_points);
+  pnh.param("max_cluster_points", params_.max_cluster_points, params_.max_cluster_points);
+  pnh.param("max_object_distance_m", params_.max_object_distance_m, params_.max_object_distance_m);
+  pnh.param("max_input_points", max_input_points_, max_input_points_);
+  pnh.param("publish_address", publish_address_, publish_address_);
+  std::string target = toString(params_.target);
+  pnh.param("target_cluster", target, target);
+
+  status_.init(*nh_, pnh, getName());
+  std::string bad;
+  if (!parseTargetCluster(target, params_.target))
+    bad = "target_cluster '" + target + "' is not one of nearest | largest | closest_to_point";
+  else if (max_input_points_ < 1)
+    bad = "max_input_points must be >= 1";
+  for (const auto& [name, value] : { std::make_pair("up_axis", &params_.up_axis),
+                                      std::make_pair("reference_point_m", &params_.reference_point_m),
+                                      std::make_pair("target_point_m", &params_.target_point_m) })
+  {
+    if (bad.empty())
+      readVector3(pnh, name, *value, bad);
+  }
+  if (bad.empty())
+  {
+    // The core validates the numbers; probe it with an empty cloud.
+    const TableSegmentationResult probe = segmentTable(std::make_shared<CloudXYZ>(), params_);
+    if (probe.reason.rfind("invalid parameters", 0) == 0)
+      bad = probe.reason;
+  }
+  params_ok_ = bad.empty();
+  if (!params_ok_)
+  {
+    NODELET_ERROR("Initialization failed: %s", bad.c_str());
+    status_.error("initialization failed: " + bad);
+    return;
+  }
+  NODELET_DEBUG("plane_distance_m %.4f, cluster_tolerance_m %.3f, target %s", params_.plane_distance_m,
+                params_.cluster_tolerance_m, toString(params_.target));
+
+  object_pub_ = advertise<CloudXYZ>(pnh, "object", 1);
+  scene_pub_ = advertise<CloudXYZ>(pnh, "scene", 1);
+  table_pub_ = advertise<CloudXYZ>(pnh, "table", 1);
+  segmented_scene_pub_ = advertise<fast_grasp::SegmentedScene>(pnh, "segmented_scene", 1);
+  if (publish_address_)
+  {
+    received_address_pub_ = pnh.advertise<std_msgs::UInt64>("received_address", 10);
+    sent_address_pub_ = pnh.advertise<std_msgs::UInt64>("sent_address", 10);
+  }
+  onInitPostProcess();
+}
+
+void TableSegmentationNodelet::subscribe()
+{
+  if (params_ok_)
+    cloud_sub_ = nh_->subscribe("input", 1, &TableSegmentationNodelet::cloudCallback, this);
+}
+
+void TableSegmentationNodelet::unsubscribe()
+{
+  cloud_sub_.shutdown();
+}
+
+void TableSegmentationNodelet::cloudCallback(const CloudConstPtr& msg)
+{
+  // Exceptions must not escape into the nodelet manager's callback queue.
+  try
+  {
+    process(msg);
+  }
+  catch (const std::exception& e)
+  {
+    NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
+    status_.error(std::string("unexpected exception: ") + e.what());
+  }
+}
+
+void TableSegmentationNodelet::process(const CloudConstPtr& msg)
+{
+  if (publish_address_)
+  {
+    std_msgs::UInt64 address;
+    address.data = reinterpret_cast<std::uintptr_t>(msg.get());
+    received_address_pub_.publish(address);
+  }
+  // Zero-copy view for the core: the std::shared_ptr keeps the boost one alive.
+  const CloudXYZ::ConstPtr cloud(msg.get(), [msg](const CloudXYZ*) {});
+  const CloudCheck check = checkCloud<PointXYZ>(cloud, static_cast<std::size_t>(max_input_points_));
+  if (!check.ok)
+  {
+    NODELET_ERROR_THROTTLE(5.0, "rejected input: %s", check.reason.c_str());
+    status_.error(check.reason);
+    TableSegmentationResult nothing;
+    nothing.failure = SegmentationFailure::InvalidInput;
+    publishScene(*msg, nothing, check.reason);
+    return;
+  }
+  const TableSegmentationResult result = segmentTable(cloud, params_);
+  const std::string status = result.ok() ? "ok" : std::string(toString(result.failure)) + ": " + result.reason;
+  // Publish what exists even on failure: the scene (for collision) and the table are still
+  // meaningful when no object was found.
+  for (auto* cloud_out : { result.table.get(), result.scene.get(), result.object.get() })
+    cloud_out->header = msg->header;
+  if (result.has_plane)
+    table_pub_.publish(toBoost(result.table));
+  if (result.has_plane || result.ok())
+    scene_pub_.publish(toBoost(result.scene));
+  if (result.ok())
+  {
+    const boost::shared_ptr<CloudXYZ> object = toBoost(result.object);
+    object_pub_.publish(object);
+    if (publish_address_)
+    {
+      std_msgs::UInt64 address;
+      address.data = reinterpret_cast<std::uintptr_t>(object.get());
+      sent_address_pub_.publish(address);
+    }
+  }
+  publishScene(*msg, result, status);
+  switch (result.failure)
+  {
+    case SegmentationFailure::None:
+      status_.ok(result.reason);
+      break;
+    case SegmentationFailure::InvalidInput:
+      NODELET_ERROR_THROTTLE(5.0, "%s", status.c_str());
+      status_.error(status);
+      break;
+    default:  // no plane, no cluster, out of reach: the scene, not the node, is at fault
+      NODELET_WARN_THROTTLE(5.0, "%s", status.c_str());
+      status_.warn(status);
+  }
+}
+
+void TableSegmentationNodelet::publishScene(const CloudXYZ& input, const TableSegmentationResult& result,
+                                            const std::string& status)
+{
+  fast_grasp::SegmentedScene scene;
+  scene.header = pcl_conversions::fromPCL(input.header);
+  scene.ok = result.ok();
+  scene.status = status;
+  for (int i = 0; i < 4; ++i)
+    scene.table_plane[i] = result.plane[i];
+  scene.table_points = result.table ? static_cast<std::uint32_t>(result.table->size()) : 0;
+  scene.object_points = result.object ? static_cast<std::uint32_t>(result.object->size()) : 0;
+  scene.object_centroid.x = result.object_centroid.x();
+  scene.object_centroid.y = result.object_centroid.y();
+  scene.object_centroid.z = result.object_centroid.z();
+  if (scene.object_points > 0)
+  {
+    const Eigen::Vector3f extent = result.object_max - result.object_min;
+    scene.object_extent.x = extent.x();
+    scene.object_extent.y = extent.y();
+    scene.object_extent.z = extent.z();
+  }
+  scene.sensor_origin.x = input.sensor_origin_.x();
+  scene.sensor_origin.y = input.sensor_origin_.y();
+  scene.sensor_origin.z = input.sensor_origin_.z();
+  scene.cluster_count = static_cast<std::uint32_t>(result.clusters.size());
+  segmented_scene_pub_.publish(scene);
+}
+
+}  // namespace fast_grasp
+
+PLUGINLIB_EXPORT_CLASS(fast_grasp::TableSegmentationNodelet, nodelet::Nodelet)

@@ -1,1 +1,0 @@
-// Replaced by the renderer sources; keeps the library target valid meanwhile.

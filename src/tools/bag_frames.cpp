@@ -1,0 +1,63 @@
+#include "bag_frames.h"
+
+#include <pcl_conversions/pcl_conversions.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2/buffer_core.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <stdexcept>
+
+namespace fast_grasp
+{
+std::vector<BagFrame> readBagFrames(const std::string& bag_path, const std::string& cloud_topic,
+                                    const std::string& base_frame)
+{
+  rosbag::Bag bag;
+  try
+  {
+    bag.open(bag_path, rosbag::bagmode::Read);
+  }
+  catch (const rosbag::BagException& e)
+  {
+    throw std::runtime_error("cannot open bag '" + bag_path + "': " + e.what());
+  }
+  tf2::BufferCore transforms;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery("/tf_static")))
+  {
+    const auto tf = m.instantiate<tf2_msgs::TFMessage>();
+    if (tf)
+      for (const auto& t : tf->transforms)
+        transforms.setTransform(t, "bag", /*is_static=*/true);
+  }
+  std::vector<BagFrame> frames;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(cloud_topic)))
+  {
+    const auto msg = m.instantiate<sensor_msgs::PointCloud2>();
+    if (!msg)
+      continue;
+    BagFrame frame;
+    frame.stamp_s = msg->header.stamp.toSec();
+    frame.frame_id = msg->header.frame_id;
+    frame.cloud.reset(new pcl::PointCloud<pcl::PointXYZRGB>);
+    pcl::fromROSMsg(*msg, *frame.cloud);
+    try
+    {
+      frame.camera_to_base = tf2::transformToEigen(transforms.lookupTransform(base_frame, msg->header.frame_id, ros::Time(0)))
+                                 .cast<float>();
+    }
+    catch (const tf2::TransformException& e)
+    {
+      throw std::runtime_error("bag '" + bag_path + "': no static transform " + base_frame + " <- " +
+                               msg->header.frame_id + ": " + e.what());
+    }
+    frames.push_back(std::move(frame));
+  }
+  if (frames.empty())
+    throw std::runtime_error("bag '" + bag_path + "' has no message on " + cloud_topic);
+  return frames;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,611 @@
+// render_bag: renders a scene YAML (config/scenes/*.yaml) into an Xtion-style rosbag plus a
+// ground-truth sidecar. See docs/renderer.md.
+//
+//   render_bag <scene.yaml> <out.bag> [--ycb-dir DIR] [--truth FILE] [--preview FILE.pgm]
+//
+// Bag contents: /tf_static (latched, base_link -> <prefix>_link -> <prefix>_rgb_optical_frame),
+// /clock (100 Hz sim time from t = 1.0 s), and per camera /<prefix>/depth_registered/points
+// (organized 640x480 sensor_msgs/PointCloud2, x y z rgb, point_step 32) at 30 Hz.
+#include "fast_grasp/xtion_renderer.h"
+
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <rosbag/bag.h>
+#include <rosgraph_msgs/Clock.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_msgs/TFMessage.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace
+{
+using fast_grasp::ScenePart;
+using fast_grasp::TriangleMesh;
+
+constexpr double kStartTimeS = 1.0;
+constexpr double kFrameRateHz = 30.0;
+constexpr double kClockRateHz = 100.0;
+constexpr int kBackgroundLabel = 0;
+constexpr int kTargetLabel = 1;
+
+struct CameraSpec
+{
+  std::string prefix = "camera";
+  Eigen::Isometry3d optical_pose = Eigen::Isometry3d::Identity();  // in base_link
+};
+
+struct ObjectSpec
+{
+  std::string name;
+  std::string source;
+  bool target = false;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // base of the object, in base_link
+  double height_m = 0.0;
+};
+
+struct Scene
+{
+  std::string name;
+  uint64_t seed = 1;
+  int frames = 1;
+  std::string compression = "lz4";
+  Eigen::Vector4d table_plane{ 0.0, 0.0, 1.0, 0.0 };
+  std::vector<ScenePart> parts;
+  std::vector<ObjectSpec> objects;
+  std::vector<CameraSpec> cameras;
+};
+
+struct Options
+{
+  std::string scene_path;
+  std::string bag_path;
+  std::string truth_path;
+  std::string preview_path;
+  std::string ycb_dir;
+};
+
+Eigen::Vector3d vec3(const YAML::Node& node, const char* key, const Eigen::Vector3d& fallback)
+{
+  if (!node[key])
+    return fallback;
+  const auto v = node[key].as<std::vector<double>>();
+  if (v.size() != 3)
+    throw std::runtime_error(std::string("'") + key + "' needs 3 numbers");
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+std::vector<Eigen::Vector2d> pairs(const YAML::Node& node, const char* key)
+{
+  std::vector<Eigen::Vector2d> out;
+  for (const auto& item : node[key])
+  {
+    const auto v = item.as<std::vector<double>>();
+    if (v.size() != 2)
+      throw std::runtime_error(std::string("'") + key + "' entries need 2 numbers");
+    out.emplace_back(v[0], v[1]);
+  }
+  return out;
+}
+
+void setColour(ScenePart& part, const YAML::Node& node, const Eigen::Vector3d& fallback)
+{
+  const Eigen::Vector3d rgb = vec3(node, "rgb", fallback);
+  part.red = static_cast<uint8_t>(std::clamp(rgb.x(), 0.0, 255.0));
+  part.green = static_cast<uint8_t>(std::clamp(rgb.y(), 0.0, 255.0));
+  part.blue = static_cast<uint8_t>(std::clamp(rgb.z(), 0.0, 255.0));
+}
+
+std::string directoryOf(const std::string& path)
+{
+  const auto slash = path.find_last_of('/');
+  return slash == std::string::npos ? "." : path.substr(0, slash);
+}
+
+// Builds one part's mesh in the object frame and describes where it came from.
+TriangleMesh partMesh(const YAML::Node& node, const Options& options, std::string& source)
+{
+  TriangleMesh mesh;
+  if (node["mesh"])
+  {
+    const std::string ref = node["mesh"].as<std::string>();
+    std::string path = ref;
+    if (ref.rfind("ycb:", 0) == 0)
+    {
+      if (options.ycb_dir.empty())
+        throw std::runtime_error("mesh '" + ref + "' needs --ycb-dir (or FAST_GRASP_YCB_DIR)");
+      path = options.ycb_dir + "/" + ref.substr(4) + ".stl";
+    }
+    else if (!ref.empty() && ref[0] != '/')
+      path = directoryOf(options.scene_path) + "/" + ref;
+    std::string error;
+    if (!fast_grasp::loadMeshFile(path, mesh, error))
+      throw std::runtime_error(error);
+    const double scale = node["scale"] ? node["scale"].as<double>() : 1.0;
+    for (auto& v : mesh.vertices)
+      v *= static_cast<float>(scale);
+    if (!node["centre_on_base"] || node["centre_on_base"].as<bool>())
+      fast_grasp::centreOnBase(mesh);
+    source = ref.rfind("ycb:", 0) == 0 ? ref : "mesh:" + ref;
+  }
+  else
+  {
+    const std::string shape = node["shape"].as<std::string>();
+    std::ostringstream description;
+    description << "parametric:" << shape;
+    if (shape == "box")
+    {
+      const Eigen::Vector3d size = vec3(node, "size_m", Eigen::Vector3d::Constant(0.1));
+      mesh = fast_grasp::makeBox(size.x(), size.y(), size.z());
+      description << " " << size.x() << "x" << size.y() << "x" << size.z() << " m";
+    }
+    else if (shape == "cylinder")
+    {
+      const double r = node["radius_m"].as<double>(), h = node["height_m"].as<double>();
+      mesh = fast_grasp::makeCylinder(r, h);
+      description << " r=" << r << " h=" << h << " m";
+    }
+    else if (shape == "sphere")
+    {
+      const double r = node["radius_m"].as<double>();
+      mesh = fast_grasp::makeSphere(r);
+      description << " r=" << r << " m";
+    }
+    else if (shape == "revolution")
+    {
+      const auto profile = pairs(node, "profile_z_r_m");
+      mesh = fast_grasp::makeRevolution(profile, node["segments"] ? node["segments"].as<int>() : 48);
+      description << " (" << profile.size() << "-point profile)";
+    }
+    else if (shape == "extrusion")
+    {
+      const auto polygon = pairs(node, "polygon_xy_m");
+      const double t = node["thickness_m"].as<double>();
+      mesh = fast_grasp::makeExtrusion(polygon, t);
+      description << " (" << polygon.size() << "-gon, " << t << " m thick)";
+    }
+    else
+      throw std::runtime_error("unknown shape '" + shape + "' (box, cylinder, sphere, revolution, extrusion)");
+    source = description.str();
+  }
+  const Eigen::Vector3d scale_xyz = vec3(node, "scale_xyz", Eigen::Vector3d::Ones());  // e.g. oval bottles
+  for (auto& v : mesh.vertices)
+    v = v.cwiseProduct(scale_xyz.cast<float>());
+  const Eigen::Vector3d offset = vec3(node, "offset_m", Eigen::Vector3d::Zero());
+  const Eigen::Vector3d rpy = vec3(node, "rpy_rad", Eigen::Vector3d::Zero());
+  Eigen::Isometry3f pose = Eigen::Isometry3f::Identity();
+  pose.translate(offset.cast<float>());
+  pose.rotate(Eigen::AngleAxisf(static_cast<float>(rpy.z()), Eigen::Vector3f::UnitZ()) *
+              Eigen::AngleAxisf(static_cast<float>(rpy.y()), Eigen::Vector3f::UnitY()) *
+              Eigen::AngleAxisf(static_cast<float>(rpy.x()), Eigen::Vector3f::UnitX()));
+  mesh.transform(pose);
+  return mesh;
+}
+
+Scene loadScene(const Options& options)
+{
+  const YAML::Node root = YAML::LoadFile(options.scene_path);
+  Scene scene;
+  scene.name = root["name"].as<std::string>();
+  scene.seed = root["seed"] ? root["seed"].as<uint64_t>() : 1;
+  scene.frames = root["frames"] ? root["frames"].as<int>() : 1;
+  if (scene.frames < 1 || scene.frames > 30)
+    throw std::runtime_error("frames must be 1..30");
+  scene.compression = root["compression"] ? root["compression"].as<std::string>() : "lz4";
+
+  // Table: a box whose top face is the support plane, optionally tilted (roll about x, pitch
+  // about y) so perception never gets an exactly horizontal z = 0 plane.
+  const YAML::Node table = root["table"];
+  const Eigen::Vector3d size = vec3(table, "size_m", Eigen::Vector3d(1.2, 0.8, 0.04));
+  std::vector<double> centre_xy = table["centre_xy_m"] ? table["centre_xy_m"].as<std::vector<double>>()
+                                                        : std::vector<double>{ 0.55, 0.0 };
+  const double top_z = table["top_z_m"] ? table["top_z_m"].as<double>() : 0.0;
+  const double roll = table["roll_rad"] ? table["roll_rad"].as<double>() : 0.0;
+  const double pitch = table["pitch_rad"] ? table["pitch_rad"].as<double>() : 0.0;
+  Eigen::Isometry3d table_pose = Eigen::Isometry3d::Identity();
+  table_pose.translate(Eigen::Vector3d(centre_xy.at(0), centre_xy.at(1), top_z));
+  table_pose.rotate(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()));
+  const Eigen::Vector3d up = table_pose.linear().col(2);
+  scene.table_plane << up, -up.dot(table_pose.translation());
+
+  ScenePart table_part;
+  table_part.mesh = fast_grasp::makeBox(size.x(), size.y(), size.z());
+  Eigen::Isometry3d table_box = table_pose * Eigen::Translation3d(0.0, 0.0, -size.z());
+  table_part.mesh.transform(table_box.cast<float>());
+  setColour(table_part, table, Eigen::Vector3d(150, 110, 75));
+  table_part.label = kBackgroundLabel;
+  scene.parts.push_back(table_part);
+
+  const double floor_drop = root["floor_drop_m"] ? root["floor_drop_m"].as<double>() : 0.75;
+  ScenePart floor_part;
+  floor_part.mesh = fast_grasp::makeBox(8.0, 8.0, 0.01);
+  floor_part.mesh.transform(Eigen::Isometry3f(Eigen::Translation3f(0.5f, 0.0f, static_cast<float>(top_z - floor_drop - 0.01))));
+  floor_part.red = floor_part.green = floor_part.blue = 90;
+  floor_part.label = kBackgroundLabel;
+  scene.parts.push_back(floor_part);
+
+  int next_label = kTargetLabel + 1;
+  for (const auto& object : root["objects"])
+  {
+    ObjectSpec spec;
+    spec.name = object["name"].as<std::string>();
+    spec.target = object["target"] && object["target"].as<bool>();
+    const auto xy = object["xy_m"].as<std::vector<double>>();
+    const double yaw = object["yaw_rad"] ? object["yaw_rad"].as<double>() : 0.0;
+    // Stand the object on the (possibly tilted) table at the given base_link x, y.
+    spec.pose = table_pose * Eigen::Translation3d(xy.at(0) - centre_xy[0], xy.at(1) - centre_xy[1], 0.0) *
+                Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
+    const int label = spec.target ? kTargetLabel : next_label++;
+    std::vector<std::string> sources;
+    float top = 0.0f;
+    for (const auto& part_node : object["parts"])
+    {
+      ScenePart part;
+      std::string source;
+      part.mesh = partMesh(part_node, options, source);
+      sources.push_back(source);
+      top = std::max(top, part.mesh.maxCorner().z());
+      part.mesh.transform(spec.pose.cast<float>());
+      setColour(part, part_node, Eigen::Vector3d(200, 60, 40));
+      part.transparent = part_node["transparent"] && part_node["transparent"].as<bool>();
+      part.label = label;
+      scene.parts.push_back(std::move(part));
+    }
+    if (sources.empty())
+      throw std::runtime_error("object '" + spec.name + "' has no parts");
+    spec.height_m = top;
+    if (object["source"])
+      spec.source = object["source"].as<std::string>();
+    else
+    {
+      spec.source = sources.front();
+      for (size_t i = 1; i < sources.size(); ++i)
+        spec.source += " + " + sources[i];
+    }
+    scene.objects.push_back(spec);
+  }
+  if (std::count_if(scene.objects.begin(), scene.objects.end(), [](const ObjectSpec& o) { return o.target; }) != 1)
+    throw std::runtime_error("exactly one object needs 'target: true'");
+
+  for (const auto& camera : root["cameras"])
+  {
+    CameraSpec spec;
+    spec.prefix = camera["prefix"] ? camera["prefix"].as<std::string>() : "camera";
+    spec.optical_pose = fast_grasp::lookAtOpticalPose(vec3(camera, "eye_m", Eigen::Vector3d::Zero()),
+                                                      vec3(camera, "target_m", Eigen::Vector3d::UnitX()));
+    scene.cameras.push_back(spec);
+  }
+  if (scene.cameras.empty() || scene.cameras.size() > 2)
+    throw std::runtime_error("a scene needs one or two cameras");
+  return scene;
+}
+
+// Organized XYZRGB cloud laid out exactly like openni2 / depth_image_proc's registered cloud.
+sensor_msgs::PointCloud2 toMessage(const fast_grasp::RenderedFrame& frame, const std::string& frame_id,
+                                   const ros::Time& stamp)
+{
+  sensor_msgs::PointCloud2 msg;
+  msg.header.stamp = stamp;
+  msg.header.frame_id = frame_id;
+  msg.height = static_cast<uint32_t>(frame.height);
+  msg.width = static_cast<uint32_t>(frame.width);
+  const char* names[] = { "x", "y", "z", "rgb" };
+  const uint32_t offsets[] = { 0, 4, 8, 16 };
+  for (int i = 0; i < 4; ++i)
+  {
+    sensor_msgs::PointField field;
+    field.name = names[i];
+    field.offset = offsets[i];
+    field.datatype = sensor_msgs::PointField::FLOAT32;
+    field.count = 1;
+    msg.fields.push_back(field);
+  }
+  msg.is_bigendian = false;
+  msg.point_step = 32;
+  msg.row_step = msg.point_step * msg.width;
+  msg.is_dense = false;
+  msg.data.assign(static_cast<size_t>(msg.row_step) * msg.height, 0);  // padding stays zero
+  for (size_t i = 0; i < frame.points.size(); ++i)
+  {
+    uint8_t* p = &msg.data[i * msg.point_step];
+    std::memcpy(p, frame.points[i].data(), 3 * sizeof(float));
+    std::memcpy(p + 16, &frame.rgb[i], sizeof(uint32_t));  // packed as PCL's PointXYZRGB float rgb
+  }
+  return msg;
+}
+
+geometry_msgs::TransformStamped transformMsg(const std::string& parent, const std::string& child,
+                                             const Eigen::Isometry3d& pose, const ros::Time& stamp)
+{
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
+  t.transform.translation.x = pose.translation().x();
+  t.transform.translation.y = pose.translation().y();
+  t.transform.translation.z = pose.translation().z();
+  const Eigen::Quaterniond q(pose.linear());
+  t.transform.rotation.x = q.x();
+  t.transform.rotation.y = q.y();
+  t.transform.rotation.z = q.z();
+  t.transform.rotation.w = q.w();
+  return t;
+}
+
+struct Visible
+{
+  pcl::PointCloud<pcl::PointXYZ> points;  // base_link
+};
+
+void collectVisible(const fast_grasp::RenderedFrame& frame, const Eigen::Isometry3d& optical_pose, Visible& out)
+{
+  const Eigen::Isometry3f pose = optical_pose.cast<float>();
+  for (size_t i = 0; i < frame.points.size(); ++i)
+    if (frame.part_label[i] == kTargetLabel && std::isfinite(frame.points[i].z()))
+    {
+      const Eigen::Vector3f p = pose * frame.points[i];
+      out.points.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+    }
+}
+
+void emitVec(YAML::Emitter& out, const Eigen::Vector3d& v)
+{
+  out << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
+}
+
+void emitPose(YAML::Emitter& out, const std::string& frame, const Eigen::Isometry3d& pose)
+{
+  const Eigen::Quaterniond q(pose.linear());
+  out << YAML::Flow << YAML::BeginMap << YAML::Key << "frame" << YAML::Value << frame;
+  out << YAML::Key << "position" << YAML::Value;
+  emitVec(out, pose.translation());
+  out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.x() << q.y() << q.z()
+      << q.w() << YAML::EndSeq << YAML::EndMap;
+}
+
+void emitVisible(YAML::Emitter& out, const std::string& prefix, const Visible& visible)
+{
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (const auto& p : visible.points)
+  {
+    const Eigen::Vector3d v(p.x, p.y, p.z);
+    centroid += v;
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const size_t n = visible.points.size();
+  if (n > 0)
+    centroid /= static_cast<double>(n);
+  else
+    lo = hi = Eigen::Vector3d::Zero();
+  out << YAML::Key << prefix + "visible_points" << YAML::Value << n;
+  out << YAML::Key << prefix + "visible_centroid" << YAML::Value;
+  emitVec(out, centroid);
+  out << YAML::Key << prefix + "visible_extent" << YAML::Value;
+  emitVec(out, hi - lo);
+  pcl::PointCloud<pcl::PointXYZ> voxels;
+  if (n > 0)
+  {
+    pcl::VoxelGrid<pcl::PointXYZ> grid;  // centroid per 1 cm voxel
+    grid.setInputCloud(visible.points.makeShared());
+    grid.setLeafSize(0.01f, 0.01f, 0.01f);
+    grid.filter(voxels);
+  }
+  out << YAML::Key << prefix + "visible_points_1cm" << YAML::Value << YAML::BeginSeq;
+  for (const auto& p : voxels.points)
+    out << YAML::Flow << YAML::BeginSeq << p.x << p.y << p.z << YAML::EndSeq;
+  out << YAML::EndSeq;
+}
+
+void writePreview(const fast_grasp::RenderedFrame& frame, const std::string& path)
+{
+  // 8-bit depth image (near = bright, NaN = black) for a quick look at a scene.
+  std::ofstream file(path, std::ios::binary);
+  file << "P5\n" << frame.width << " " << frame.height << "\n255\n";
+  for (const auto& p : frame.points)
+  {
+    const double z = p.z();
+    const uint8_t value = std::isfinite(z) ? static_cast<uint8_t>(std::clamp(255.0 - (z - 0.4) * 110.0, 16.0, 255.0)) : 0;
+    file.put(static_cast<char>(value));
+  }
+}
+
+boost::shared_ptr<ros::M_string> latchedHeader(const std::string& topic)
+{
+  auto header = boost::make_shared<ros::M_string>();
+  (*header)["topic"] = topic;
+  (*header)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+  (*header)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+  (*header)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
+  (*header)["callerid"] = "/render_bag";
+  (*header)["latching"] = "1";  // rosbag play republishes /tf_static latched
+  return header;
+}
+
+int run(const Options& options)
+{
+  const Scene scene = loadScene(options);
+  const fast_grasp::XtionRenderer renderer(scene.parts);
+  std::cout << scene.name << ": " << renderer.triangleCount() << " triangles, " << scene.frames << " frame(s), "
+            << scene.cameras.size() << " camera(s)" << std::endl;
+
+  rosbag::Bag bag;
+  bag.open(options.bag_path, rosbag::bagmode::Write);
+  if (scene.compression == "bz2")
+    bag.setCompression(rosbag::compression::BZ2);
+  else if (scene.compression == "lz4")
+    bag.setCompression(rosbag::compression::LZ4);
+  else if (scene.compression != "none")
+    throw std::runtime_error("compression must be bz2, lz4 or none");
+
+  const ros::Time start(kStartTimeS);
+  tf2_msgs::TFMessage tf_static;
+  for (const auto& camera : scene.cameras)
+  {
+    Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
+    link_from_optical.linear() = fast_grasp::opticalFromLinkRotation().toRotationMatrix();
+    const Eigen::Isometry3d link_pose = camera.optical_pose * link_from_optical.inverse();
+    tf_static.transforms.push_back(transformMsg("base_link", camera.prefix + "_link", link_pose, start));
+    tf_static.transforms.push_back(
+        transformMsg(camera.prefix + "_link", camera.prefix + "_rgb_optical_frame", link_from_optical, start));
+  }
+  bag.write("/tf_static", start, tf_static, latchedHeader("/tf_static"));
+
+  const double last_frame_s = kStartTimeS + (scene.frames - 1) / kFrameRateHz;
+  const int clock_ticks = static_cast<int>(std::ceil((last_frame_s + 0.1 - kStartTimeS) * kClockRateHz));
+  int next_tick = 0;
+  auto writeClockUntil = [&](double until_s) {
+    for (; next_tick <= clock_ticks && kStartTimeS + next_tick / kClockRateHz <= until_s + 1e-9; ++next_tick)
+    {
+      rosgraph_msgs::Clock clock;
+      clock.clock = ros::Time(kStartTimeS + next_tick / kClockRateHz);
+      bag.write("/clock", clock.clock, clock);
+    }
+  };
+  for (int f = 0; f < scene.frames; ++f)
+  {
+    const double t = kStartTimeS + f / kFrameRateHz;
+    writeClockUntil(t);
+    for (size_t c = 0; c < scene.cameras.size(); ++c)
+    {
+      const auto& camera = scene.cameras[c];
+      const fast_grasp::RenderedFrame frame = renderer.render(camera.optical_pose, scene.seed * 1000 + c * 100 + f);
+      if (f == 0 && c == 0 && !options.preview_path.empty())
+        writePreview(frame, options.preview_path);
+      bag.write("/" + camera.prefix + "/depth_registered/points", ros::Time(t),
+                toMessage(frame, camera.prefix + "_rgb_optical_frame", ros::Time(t)));
+    }
+  }
+  writeClockUntil(last_frame_s + 0.1);
+  bag.close();
+
+  // Ground truth: noise-free object pixels of frame 0, in base_link.
+  const ObjectSpec& target = *std::find_if(scene.objects.begin(), scene.objects.end(), [](const ObjectSpec& o) { return o.target; });
+  YAML::Emitter out;
+  out.SetDoublePrecision(6);
+  out.SetFloatPrecision(6);
+  out << YAML::BeginMap;
+  out << YAML::Key << "scene" << YAML::Value << scene.name;
+  const std::string bag_name = options.bag_path.substr(options.bag_path.find_last_of('/') + 1);
+  out << YAML::Key << "bag" << YAML::Value << bag_name;
+  out << YAML::Key << "frames" << YAML::Value << scene.frames;
+  out << YAML::Key << "seed" << YAML::Value << scene.seed;
+  out << YAML::Key << "object" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << target.name;
+  out << YAML::Key << "source" << YAML::Value << YAML::DoubleQuoted << target.source;
+  out << YAML::Key << "position" << YAML::Value;
+  emitVec(out, target.pose.translation());
+  const Eigen::Quaterniond q(target.pose.linear());
+  out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.x() << q.y() << q.z()
+      << q.w() << YAML::EndSeq;
+  out << YAML::Key << "height_m" << YAML::Value << target.height_m;
+  out << YAML::EndMap;
+  out << YAML::Key << "distractors" << YAML::Value << YAML::BeginSeq;
+  for (const auto& o : scene.objects)
+    if (!o.target)
+    {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << o.name << YAML::Key << "position"
+          << YAML::Value;
+      emitVec(out, o.pose.translation());
+      out << YAML::EndMap;
+    }
+  out << YAML::EndSeq;
+  out << YAML::Key << "table_plane" << YAML::Value << YAML::Flow << YAML::BeginSeq << scene.table_plane[0]
+      << scene.table_plane[1] << scene.table_plane[2] << scene.table_plane[3] << YAML::EndSeq;
+  out << YAML::Key << "camera_pose" << YAML::Value;
+  emitPose(out, scene.cameras[0].prefix + "_rgb_optical_frame", scene.cameras[0].optical_pose);
+  out << YAML::Key << "topic" << YAML::Value << "/" + scene.cameras[0].prefix + "/depth_registered/points";
+  Visible first;
+  collectVisible(renderer.renderNoiseFree(scene.cameras[0].optical_pose), scene.cameras[0].optical_pose, first);
+  emitVisible(out, "", first);
+  std::cout << "  visible target points (noise-free, frame 0): " << first.points.size() << std::endl;
+  if (scene.cameras.size() == 2)
+  {
+    const auto& head = scene.cameras[1];
+    out << YAML::Key << "head_camera_pose" << YAML::Value;
+    emitPose(out, head.prefix + "_rgb_optical_frame", head.optical_pose);
+    out << YAML::Key << "head_topic" << YAML::Value << "/" + head.prefix + "/depth_registered/points";
+    Visible second;
+    collectVisible(renderer.renderNoiseFree(head.optical_pose), head.optical_pose, second);
+    emitVisible(out, "head_", second);
+    Visible both = first;
+    both.points += second.points;
+    emitVisible(out, "union_", both);
+    std::cout << "  visible from head camera: " << second.points.size() << ", union: " << both.points.size()
+              << std::endl;
+  }
+  out << YAML::EndMap;
+  std::ofstream truth(options.truth_path);
+  truth << "# Ground truth for " << bag_name << " (written by render_bag; see docs/renderer.md)\n"
+        << out.c_str() << "\n";
+  if (!truth)
+    throw std::runtime_error("cannot write " + options.truth_path);
+  if (first.points.empty())
+    std::cerr << "warning: the target is not visible in frame 0" << std::endl;
+  return 0;
+}
+
+void usage()
+{
+  std::cerr << "usage: render_bag <scene.yaml> <out.bag> [--ycb-dir DIR] [--truth FILE] [--preview FILE.pgm]\n"
+               "  --ycb-dir: folder of YCB STL files for 'ycb:NAME' meshes (default $FAST_GRASP_YCB_DIR)\n"
+               "  --truth:   ground-truth sidecar (default: <out>.truth.yaml beside the bag)\n";
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  Options options;
+  if (const char* env = std::getenv("FAST_GRASP_YCB_DIR"))
+    options.ycb_dir = env;
+  std::vector<std::string> positional;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string arg = argv[i];
+    if ((arg == "--ycb-dir" || arg == "--truth" || arg == "--preview") && i + 1 < argc)
+    {
+      const std::string value = argv[++i];
+      (arg == "--ycb-dir" ? options.ycb_dir : arg == "--truth" ? options.truth_path : options.preview_path) = value;
+    }
+    else if (arg == "-h" || arg == "--help")
+    {
+      usage();
+      return 0;
+    }
+    else
+      positional.push_back(arg);
+  }
+  if (positional.size() != 2)
+  {
+    usage();
+    return 2;
+  }
+  options.scene_path = positional[0];
+  options.bag_path = positional[1];
+  if (options.truth_path.empty())
+  {
+    std::string stem = options.bag_path;
+    if (stem.size() > 4 && stem.substr(stem.size() - 4) == ".bag")
+      stem.resize(stem.size() - 4);
+    options.truth_path = stem + ".truth.yaml";
+  }
+  try
+  {
+    return run(options);
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "render_bag: " << options.scene_path << ": " << e.what() << std::endl;
+    return 1;
+  }
+}

@@ -1,0 +1,161 @@
+// FCL collision of the UR5 model: self, table, OctoMap obstacles, self filter, finger/target rule.
+#include "fast_grasp/robot_collision.h"
+
+#include <gtest/gtest.h>
+
+namespace
+{
+using fast_grasp::ArmKinematics;
+using fast_grasp::CollisionCheckOptions;
+using fast_grasp::RobotCollision;
+constexpr double kPi = 3.14159265358979323846;
+
+ArmKinematics ur5()
+{
+  return ArmKinematics::fromUrdfFile(std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/ur5_gripper_xtion.urdf");
+}
+
+Eigen::VectorXd joints(double a, double b, double c, double d, double e, double f)
+{
+  Eigen::VectorXd q(6);
+  q << a, b, c, d, e, f;
+  return q;
+}
+
+/// Points filling an axis-aligned box on a grid (spacing 1 cm).
+pcl::PointCloud<pcl::PointXYZ> boxCloud(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double step = 0.01)
+{
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  for (double x = lo.x(); x <= hi.x() + 1e-9; x += step)
+    for (double y = lo.y(); y <= hi.y() + 1e-9; y += step)
+      for (double z = lo.z(); z <= hi.z() + 1e-9; z += step)
+        cloud.push_back(pcl::PointXYZ(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+  return cloud;
+}
+
+const Eigen::VectorXd kHome = joints(0.0, -kPi / 2, kPi / 2, -kPi / 2, -kPi / 2, 0.0);
+
+TEST(RobotCollision, ReadsTheUrdfShapes)
+{
+  const RobotCollision collision(ur5());
+  EXPECT_GE(collision.shapes().size(), 12u);
+  EXPECT_EQ(collision.skippedMeshes(), 0u);
+  int fingers = 0;
+  for (const auto& s : collision.shapes())
+    fingers += s.finger ? 1 : 0;
+  EXPECT_EQ(fingers, 2);
+}
+
+TEST(RobotCollision, FreePosesAreFree)
+{
+  const RobotCollision collision(ur5());
+  std::string why;
+  EXPECT_FALSE(collision.inCollision(kHome, CollisionCheckOptions(), &why)) << why;
+  EXPECT_FALSE(collision.inCollision(joints(0, -kPi / 2, 0, -kPi / 2, 0, 0), CollisionCheckOptions(), &why)) << why;
+  EXPECT_FALSE(collision.inCollision(joints(0, 0, 0, 0, 0, 0), CollisionCheckOptions(), &why)) << why;
+}
+
+TEST(RobotCollision, SelfCollisionIsCaught)
+{
+  const RobotCollision collision(ur5());
+  // Elbow folded back (3.1 rad): the wrist lands on the shoulder / upper-arm motor.
+  std::string why;
+  EXPECT_TRUE(collision.inSelfCollision(joints(0, -kPi / 2, 3.1, 0, 0, 0), &why));
+  EXPECT_NE(why.find("self"), std::string::npos) << why;
+  // Bad joint vectors are collisions, not crashes.
+  EXPECT_TRUE(collision.inCollision(Eigen::VectorXd::Zero(3)));
+  EXPECT_TRUE(collision.inCollision(joints(std::nan(""), 0, 0, 0, 0, 0)));
+}
+
+TEST(RobotCollision, TableCollisionIsCaught)
+{
+  RobotCollision collision(ur5());
+  Eigen::Isometry3d table = Eigen::Isometry3d::Identity();
+  table.translation() << 0.0, 0.0, -0.05;  // top face at z = 0, where the base stands
+  collision.addBox("table", Eigen::Vector3d(2.0, 2.0, 0.1), table);
+  std::string why;
+  EXPECT_FALSE(collision.inCollision(kHome, CollisionCheckOptions(), &why)) << why;
+  // Arm stretched 0.5 rad below horizontal: the hand is ~0.4 m under the table top.
+  EXPECT_TRUE(collision.inCollision(joints(0, 0.5, 0, 0, 0, 0), CollisionCheckOptions(), &why));
+  EXPECT_NE(why.find("table"), std::string::npos) << why;
+}
+
+TEST(RobotCollision, OctomapBoxBlocksAPathThroughIt)
+{
+  RobotCollision collision(ur5());
+  ASSERT_TRUE(collision.resetScene(0.02));
+  const ArmKinematics& kin = collision.kinematics();
+  // Path: the pan joint sweeps the stretched arm (grasp frame ~1 m out) from -1 to +1 rad.
+  const Eigen::VectorXd from = joints(-1.0, 0.0, 0.0, 0.0, 0.0, 0.0), to = joints(1.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+  // A 10 cm box of points right on the sweep at pan = 0.
+  const Eigen::Vector3d hand = kin.fk(joints(0, 0, 0, 0, 0, 0)).translation();
+  const Eigen::Vector3d half(0.05, 0.05, 0.05);
+  const std::size_t inserted = collision.addObstacleCloud(boxCloud(hand - half, hand + half), from);
+  EXPECT_GT(inserted, 1000u);
+  EXPECT_GT(collision.obstacleVoxelCount(), 0u);
+  std::string why;
+  EXPECT_FALSE(collision.inCollision(from, CollisionCheckOptions(), &why)) << why;
+  EXPECT_FALSE(collision.inCollision(to, CollisionCheckOptions(), &why)) << why;
+  bool blocked = false;
+  for (int i = 0; i <= 200 && !blocked; ++i)
+    blocked = collision.inCollision(from + (to - from) * (i / 200.0), CollisionCheckOptions(), &why);
+  EXPECT_TRUE(blocked);
+  EXPECT_NE(why.find("octomap"), std::string::npos) << why;
+}
+
+TEST(RobotCollision, PointsOnTheArmAreFilteredOut)
+{
+  RobotCollision collision(ur5());
+  ASSERT_TRUE(collision.resetScene(0.01));
+  const ArmKinematics& kin = collision.kinematics();
+  // A cloud of the arm itself (points on the grasp frame axis inside the palm and wrist)
+  // plus a far box: only the box survives, and the arm is not its own obstacle.
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  const Eigen::Isometry3d tool = kin.fk(kHome);
+  for (double s = -0.15; s <= -0.06; s += 0.005)
+  {
+    const Eigen::Vector3d p = tool * Eigen::Vector3d(s, 0, 0);
+    cloud.push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
+  }
+  const std::size_t arm_points = cloud.size();
+  const pcl::PointCloud<pcl::PointXYZ> far = boxCloud(Eigen::Vector3d(-0.9, -0.9, 0.0), Eigen::Vector3d(-0.8, -0.8, 0.1));
+  cloud += far;
+  const std::size_t inserted = collision.addObstacleCloud(cloud, kHome);
+  EXPECT_EQ(inserted, far.size());
+  EXPECT_LT(inserted, far.size() + arm_points);
+  std::string why;
+  EXPECT_FALSE(collision.inCollision(kHome, CollisionCheckOptions(), &why)) << why;
+}
+
+TEST(RobotCollision, OnlyFingersMayTouchTheTargetDuringApproach)
+{
+  RobotCollision collision(ur5());
+  ASSERT_TRUE(collision.resetScene(0.01));
+  std::vector<Eigen::Isometry3d> poses;
+  collision.shapePoses(kHome, poses);
+  std::size_t finger = 0, palm = 0;
+  for (std::size_t i = 0; i < collision.shapes().size(); ++i)
+  {
+    if (collision.shapes()[i].link == "left_finger_link")
+      finger = i;
+    if (collision.shapes()[i].link == "gripper_palm_link")
+      palm = i;
+  }
+  auto cloudAt = [](const Eigen::Vector3d& c) {
+    return boxCloud(c - Eigen::Vector3d::Constant(0.005), c + Eigen::Vector3d::Constant(0.005), 0.005);
+  };
+  CollisionCheckOptions approach;
+  approach.allow_finger_target_contact = true;
+  collision.setTargetCloud(cloudAt(poses[finger].translation()));
+  EXPECT_TRUE(collision.inCollision(kHome));
+  std::string why;
+  EXPECT_FALSE(collision.inCollision(kHome, approach, &why)) << why;
+  collision.setTargetCloud(cloudAt(poses[palm].translation()));
+  EXPECT_TRUE(collision.inCollision(kHome, approach, &why));
+  EXPECT_NE(why.find("target"), std::string::npos) << why;
+  // An empty target is no obstacle.
+  collision.setTargetCloud(pcl::PointCloud<pcl::PointXYZ>());
+  EXPECT_FALSE(collision.inCollision(kHome));
+}
+
+}  // namespace

@@ -1,0 +1,473 @@
+// Perception core on analytic scenes: a sphere's normals point outward, RANSAC recovers a
+// known tilted table under a box, two objects 20 cm apart give two clusters, the reach
+// filter and the voxel grid behave as computed by hand, and bad input returns a reason.
+#include "fast_grasp/cloud_preprocess.h"
+#include "fast_grasp/normal_estimation.h"
+#include "fast_grasp/table_segmentation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+using namespace fast_grasp;
+
+namespace
+{
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+double angleBetween(const Eigen::Vector3f& a, const Eigen::Vector3f& b)
+{
+  return std::acos(std::clamp(static_cast<double>(a.normalized().dot(b.normalized())), -1.0, 1.0));
+}
+
+/// Camera at `eye` looking at `target`, pinhole with `pixels` x `pixels` rays of `pixel_rad`
+/// spacing; returns where the rays first hit a sphere, plus axial noise (along the ray).
+CloudXYZ::Ptr raycastSphere(const Eigen::Vector3f& eye, const Eigen::Vector3f& centre, float radius, int pixels,
+                            float pixel_rad, float noise_m, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, noise_m);
+  const Eigen::Vector3f forward = (centre - eye).normalized();
+  const Eigen::Vector3f right = forward.unitOrthogonal();
+  const Eigen::Vector3f down = forward.cross(right);
+  auto cloud = std::make_shared<CloudXYZ>();
+  for (int r = 0; r < pixels; ++r)
+    for (int c = 0; c < pixels; ++c)
+    {
+      const Eigen::Vector3f ray =
+          (forward + right * std::tan((c - pixels / 2) * pixel_rad) + down * std::tan((r - pixels / 2) * pixel_rad))
+              .normalized();
+      // |eye + t ray - centre|^2 = radius^2, nearest root.
+      const Eigen::Vector3f oc = eye - centre;
+      const float b = ray.dot(oc);
+      const float disc = b * b - (oc.squaredNorm() - radius * radius);
+      if (disc < 0.0f)
+        continue;
+      const float t = -b - std::sqrt(disc) + noise(rng);
+      const Eigen::Vector3f p = eye + t * ray;
+      cloud->push_back(PointXYZ(p.x(), p.y(), p.z()));
+    }
+  return cloud;
+}
+
+/// Grid samples of the plane through `origin` spanned by `u`, `v` (unit), `step` apart.
+void addPatch(CloudXYZ& cloud, const Eigen::Vector3f& origin, const Eigen::Vector3f& u, const Eigen::Vector3f& v,
+              float size_u, float size_v, float step, float noise_m, std::mt19937& rng)
+{
+  std::normal_distribution<float> noise(0.0f, noise_m);
+  const Eigen::Vector3f normal = u.cross(v).normalized();
+  for (float a = 0.5f * step; a < size_u; a += step)
+    for (float b = 0.5f * step; b < size_v; b += step)
+    {
+      const Eigen::Vector3f p = origin + a * u + b * v + (noise_m > 0.0f ? noise(rng) : 0.0f) * normal;
+      cloud.push_back(PointXYZ(p.x(), p.y(), p.z()));
+    }
+}
+
+/// Axis-aligned box standing on z = `floor_z` (top and four sides sampled), footprint centred at `centre_xy`.
+void addBox(CloudXYZ& cloud, const Eigen::Vector2f& centre_xy, float floor_z, const Eigen::Vector3f& size, float step,
+            std::mt19937& rng)
+{
+  const Eigen::Vector3f lo(centre_xy.x() - size.x() / 2, centre_xy.y() - size.y() / 2, floor_z);
+  const Eigen::Vector3f ex = Eigen::Vector3f::UnitX(), ey = Eigen::Vector3f::UnitY(), ez = Eigen::Vector3f::UnitZ();
+  addPatch(cloud, lo + Eigen::Vector3f(0, 0, size.z()), ex, ey, size.x(), size.y(), step, 0.0005f, rng);  // top
+  addPatch(cloud, lo, ex, ez, size.x(), size.z(), step, 0.0005f, rng);                                      // -y side
+  addPatch(cloud, lo + Eigen::Vector3f(0, size.y(), 0), ex, ez, size.x(), size.z(), step, 0.0005f, rng);    // +y
+  addPatch(cloud, lo, ey, ez, size.y(), size.z(), step, 0.0005f, rng);                                      // -x
+  addPatch(cloud, lo + Eigen::Vector3f(size.x(), 0, 0), ey, ez, size.y(), size.z(), step, 0.0005f, rng);    // +x
+}
+
+void finish(CloudXYZ& cloud)
+{
+  cloud.width = static_cast<std::uint32_t>(cloud.size());
+  cloud.height = 1;
+  cloud.is_dense = true;
+}
+}  // namespace
+
+// ------------------------------------------------------------------------------------------
+// Preprocessing
+
+TEST(CloudPreprocess, ReachFilterDropsPointsBeyondReach)
+{
+  // Camera 1 m above the base looking down (optical z = base -z); points at known base distances.
+  Eigen::Isometry3f camera_to_base = Eigen::Isometry3f::Identity();
+  camera_to_base.translation() = Eigen::Vector3f(0, 0, 1.0f);
+  camera_to_base.linear() = Eigen::AngleAxisf(static_cast<float>(M_PI), Eigen::Vector3f::UnitX()).toRotationMatrix();
+  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  // Base-frame targets on z = 0 at x = 0.5, 0.84, 0.86, 1.2: camera coords (x, -y, 1 - z).
+  for (const float x : { 0.5f, 0.84f, 0.86f, 1.2f })
+  {
+    pcl::PointXYZRGB p;
+    p.x = x;
+    p.y = 0.0f;
+    p.z = 1.0f;
+    raw.push_back(p);
+  }
+  PreprocessParams params;
+  params.leaf_size_m = 0.0;
+  const PreprocessResult result = preprocessCloud(raw, camera_to_base, params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  ASSERT_EQ(result.cloud->size(), 2u);
+  EXPECT_NEAR(result.cloud->points[0].x, 0.5f, 1e-5f);
+  EXPECT_NEAR(result.cloud->points[0].z, 0.0f, 1e-5f);
+  EXPECT_NEAR(result.cloud->points[1].x, 0.84f, 1e-5f);
+  EXPECT_EQ(result.in_reach_points, 2u);
+  // The sensor origin is the camera's optical centre in the base frame.
+  EXPECT_TRUE(result.cloud->sensor_origin_.head<3>().isApprox(Eigen::Vector3f(0, 0, 1.0f)));
+}
+
+TEST(CloudPreprocess, VoxelGridReducesDensityToOnePointPerLeaf)
+{
+  // 100 x 100 points 1 mm apart, offset half a millimetre from the 1 cm voxel boundaries:
+  // exactly 10 x 10 voxels, each the centroid of 100 points.
+  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j)
+    {
+      pcl::PointXYZRGB p;
+      p.x = 0.3005f + 0.001f * i;
+      p.y = 0.0005f + 0.001f * j;
+      p.z = 0.0f;
+      raw.push_back(p);
+    }
+  PreprocessParams params;
+  params.leaf_size_m = 0.01;
+  const PreprocessResult result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  EXPECT_EQ(result.in_reach_points, 10000u);
+  ASSERT_EQ(result.cloud->size(), 100u);
+  for (const auto& p : result.cloud->points)
+  {
+    // Voxel centroids sit at the voxel centres: 0.305, 0.315, ...
+    EXPECT_NEAR(std::fmod(p.x + 1e-4f, 0.01f), 0.005f + 1e-4f, 1e-4f);
+    EXPECT_NEAR(std::fmod(p.y + 1e-4f, 0.01f), 0.005f + 1e-4f, 1e-4f);
+  }
+}
+
+TEST(CloudPreprocess, OrganisedStrideSamplesEveryOtherPixel)
+{
+  pcl::PointCloud<pcl::PointXYZRGB> raw(8, 6);  // organised, all at (0.5, 0, 0)
+  for (auto& p : raw.points)
+  {
+    p.x = 0.5f;
+    p.y = 0.0f;
+    p.z = 0.0f;
+  }
+  PreprocessParams params;
+  params.leaf_size_m = 0.0;
+  params.pixel_stride = 2;
+  PreprocessResult result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(result.ok);
+  EXPECT_EQ(result.cloud->size(), 4u * 3u);
+  params.pixel_stride = 1;
+  result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  EXPECT_EQ(result.cloud->size(), 48u);
+}
+
+TEST(CloudPreprocess, BadInputGivesReasonNotThrow)
+{
+  const PreprocessParams params;
+  const Eigen::Isometry3f identity = Eigen::Isometry3f::Identity();
+  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  PreprocessResult result;
+  ASSERT_NO_THROW(result = preprocessCloud(raw, identity, params));
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("empty"), std::string::npos) << result.reason;
+  EXPECT_FALSE(result.cloud);
+
+  raw = pcl::PointCloud<pcl::PointXYZRGB>(64, 48);
+  for (auto& p : raw.points)
+    p.x = p.y = p.z = kNaN;
+  ASSERT_NO_THROW(result = preprocessCloud(raw, identity, params));
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("no finite point"), std::string::npos) << result.reason;
+
+  for (auto& p : raw.points)
+    p.x = p.y = p.z = kInf;
+  ASSERT_NO_THROW(result = preprocessCloud(raw, identity, params));
+  EXPECT_FALSE(result.ok);
+  EXPECT_EQ(result.infinite_points, raw.size());
+
+  // Some infinite points among good ones: processed, the note says what was dropped.
+  for (auto& p : raw.points)
+  {
+    p.x = 0.4f;
+    p.y = 0.1f;
+    p.z = 0.0f;
+  }
+  raw.points[5].z = -kInf;
+  raw.points[7].x = kInf;
+  ASSERT_NO_THROW(result = preprocessCloud(raw, identity, params));
+  ASSERT_TRUE(result.ok) << result.reason;
+  EXPECT_EQ(result.infinite_points, 2u);
+  EXPECT_NE(result.reason.find("infinite"), std::string::npos);
+  EXPECT_TRUE(result.cloud->is_dense);
+
+  // Everything beyond reach.
+  for (auto& p : raw.points)
+    p.x = 2.0f;
+  result = preprocessCloud(raw, identity, params);
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("reach"), std::string::npos) << result.reason;
+
+  // Too large, bad parameters, non-finite transform.
+  PreprocessParams small = params;
+  small.max_input_points = 100;
+  result = preprocessCloud(raw, identity, small);
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("too large"), std::string::npos) << result.reason;
+  PreprocessParams bad = params;
+  bad.leaf_size_m = -1.0;
+  EXPECT_FALSE(preprocessCloud(raw, identity, bad).ok);
+  Eigen::Isometry3f broken = identity;
+  broken.translation().x() = kNaN;
+  EXPECT_FALSE(preprocessCloud(raw, broken, params).ok);
+}
+
+// ------------------------------------------------------------------------------------------
+// Table segmentation
+
+TEST(TableSegmentation, RansacFindsKnownTiltedPlaneUnderBox)
+{
+  // Table: 0.6 x 0.6 m, 5 mm grid, 2 mm noise, tilted 3 degrees about x, through (0.3, -0.3, 0.1).
+  std::mt19937 rng(7);
+  const float tilt = static_cast<float>(3.0 * M_PI / 180.0);
+  const Eigen::Vector3f u = Eigen::Vector3f::UnitX();
+  const Eigen::Vector3f v(0.0f, std::cos(tilt), std::sin(tilt));
+  const Eigen::Vector3f origin(0.3f, -0.3f, 0.1f);
+  auto cloud = std::make_shared<CloudXYZ>();
+  addPatch(*cloud, origin, u, v, 0.6f, 0.6f, 0.005f, 0.002f, rng);
+  const std::size_t table_points = cloud->size();
+  // Box on the table near (0.6, 0): the table height there is 0.1 + 0.3 tan(tilt) ~ 0.1157;
+  // the box stands on z = 0.13 (a small gap keeps the test about the plane, not contact).
+  addBox(*cloud, Eigen::Vector2f(0.6f, 0.0f), 0.13f, Eigen::Vector3f(0.06f, 0.08f, 0.12f), 0.005f, rng);
+  const std::size_t box_points = cloud->size() - table_points;
+  finish(*cloud);
+
+  const TableSegmentationResult result = segmentTable(cloud, TableSegmentationParams());
+  ASSERT_TRUE(result.ok()) << result.reason;
+  const Eigen::Vector3f true_normal = u.cross(v).normalized();
+  const float true_d = -true_normal.dot(origin);
+  EXPECT_LT(angleBetween(result.plane.head<3>(), true_normal), 1.0 * M_PI / 180.0);
+  EXPECT_GT(result.plane.z(), 0.0f) << "normal must point up";
+  // Offset compared where the object stands (0.6, 0, table height).
+  const Eigen::Vector3f probe(0.6f, 0.0f, (-true_d - true_normal.x() * 0.6f) / true_normal.z());
+  EXPECT_NEAR(result.plane.head<3>().dot(probe) + result.plane[3], 0.0f, 0.005f);
+  EXPECT_NEAR(static_cast<double>(result.table->size()), static_cast<double>(table_points), 0.02 * table_points);
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_EQ(result.object->size(), box_points);
+  EXPECT_EQ(result.scene->size(), cloud->size() - box_points);
+  EXPECT_NEAR(result.object_max.z(), 0.25f, 0.003f);
+  EXPECT_NEAR(result.object_min.x(), 0.57f, 0.003f);
+  EXPECT_NEAR(result.object_max.x(), 0.63f, 0.003f);
+}
+
+TEST(TableSegmentation, TwoObjectsTwentyCentimetresApartAreTwoClusters)
+{
+  std::mt19937 rng(3);
+  auto cloud = std::make_shared<CloudXYZ>();
+  addPatch(*cloud, Eigen::Vector3f(0.2f, -0.4f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.8f,
+           0.005f, 0.001f, rng);
+  // Near box (small) at x = 0.4, far box (large) 20 cm away at x = 0.6.
+  const std::size_t before_near = cloud->size();
+  addBox(*cloud, Eigen::Vector2f(0.4f, 0.0f), 0.0f, Eigen::Vector3f(0.05f, 0.05f, 0.08f), 0.005f, rng);
+  const std::size_t near_points = cloud->size() - before_near;
+  const std::size_t before_far = cloud->size();
+  addBox(*cloud, Eigen::Vector2f(0.6f, 0.0f), 0.0f, Eigen::Vector3f(0.08f, 0.08f, 0.15f), 0.005f, rng);
+  const std::size_t far_points = cloud->size() - before_far;
+  finish(*cloud);
+  // Points of each box within 1 cm of the table are table by definition (min_height_above_table_m).
+  TableSegmentationParams params;
+  params.target = TargetCluster::Nearest;
+  TableSegmentationResult result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  ASSERT_EQ(result.clusters.size(), 2u);
+  EXPECT_LT(result.object->size(), near_points);
+  EXPECT_GT(result.object->size(), near_points * 8 / 10);
+  EXPECT_NEAR(result.object_centroid.x(), 0.4f, 0.01f);  // nearest to the base origin
+
+  params.target = TargetCluster::Largest;
+  result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok());
+  EXPECT_NEAR(result.object_centroid.x(), 0.6f, 0.01f);
+  EXPECT_GT(result.object->size(), far_points * 8 / 10);
+
+  params.target = TargetCluster::ClosestToPoint;
+  params.target_point_m = Eigen::Vector3f(0.65f, 0.05f, 0.1f);
+  result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok());
+  EXPECT_NEAR(result.object_centroid.x(), 0.6f, 0.01f);
+  params.target_point_m = Eigen::Vector3f(0.3f, 0.0f, 0.0f);
+  result = segmentTable(cloud, params);
+  EXPECT_NEAR(result.object_centroid.x(), 0.4f, 0.01f);
+
+  // A camera 0.5 m above the far box looking straight down is aimed at the far box.
+  cloud->sensor_origin_ = Eigen::Vector4f(0.6f, 0.0f, 0.5f, 0.0f);
+  cloud->sensor_orientation_ = Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(M_PI), Eigen::Vector3f::UnitX()));
+  params.target = TargetCluster::CenterOfView;
+  result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok());
+  EXPECT_NEAR(result.object_centroid.x(), 0.6f, 0.01f);
+  EXPECT_TRUE(result.object->sensor_origin_.isApprox(cloud->sensor_origin_));
+  cloud->sensor_origin_ = Eigen::Vector4f(0.4f, 0.0f, 0.5f, 0.0f);  // now above the near box
+  result = segmentTable(cloud, params);
+  EXPECT_NEAR(result.object_centroid.x(), 0.4f, 0.01f);
+
+  TargetCluster parsed = TargetCluster::Nearest;
+  EXPECT_TRUE(parseTargetCluster("center_of_view", parsed));
+  EXPECT_EQ(parsed, TargetCluster::CenterOfView);
+  EXPECT_TRUE(parseTargetCluster("largest", parsed));
+  EXPECT_EQ(parsed, TargetCluster::Largest);
+  EXPECT_FALSE(parseTargetCluster("biggest", parsed));
+}
+
+TEST(TableSegmentation, BadInputAndMissingPartsGiveTypedFailures)
+{
+  std::mt19937 rng(5);
+  TableSegmentationResult result;
+  ASSERT_NO_THROW(result = segmentTable(nullptr, TableSegmentationParams()));
+  EXPECT_EQ(result.failure, SegmentationFailure::InvalidInput);
+  ASSERT_TRUE(result.object && result.scene && result.table);
+  EXPECT_EQ(segmentTable(std::make_shared<CloudXYZ>(), TableSegmentationParams()).failure,
+            SegmentationFailure::InvalidInput);
+
+  auto nan_cloud = std::make_shared<CloudXYZ>();
+  nan_cloud->push_back(PointXYZ(kNaN, 0.0f, 0.0f));
+  EXPECT_EQ(segmentTable(nan_cloud, TableSegmentationParams()).failure, SegmentationFailure::InvalidInput);
+
+  // A vertical wall only: no near-horizontal plane.
+  auto wall = std::make_shared<CloudXYZ>();
+  addPatch(*wall, Eigen::Vector3f(0.5f, -0.3f, 0.0f), Eigen::Vector3f::UnitY(), Eigen::Vector3f::UnitZ(), 0.6f, 0.4f,
+           0.005f, 0.001f, rng);
+  finish(*wall);
+  result = segmentTable(wall, TableSegmentationParams());
+  EXPECT_EQ(result.failure, SegmentationFailure::NoPlane) << result.reason;
+  EXPECT_NE(result.reason.find("no plane"), std::string::npos);
+
+  // A bare table: plane, no cluster; the scene is the whole table.
+  auto table = std::make_shared<CloudXYZ>();
+  addPatch(*table, Eigen::Vector3f(0.2f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.5f, 0.6f,
+           0.005f, 0.001f, rng);
+  finish(*table);
+  result = segmentTable(table, TableSegmentationParams());
+  EXPECT_EQ(result.failure, SegmentationFailure::NoCluster) << result.reason;
+  EXPECT_TRUE(result.has_plane);
+  EXPECT_EQ(result.scene->size(), table->size());
+  EXPECT_TRUE(result.object->empty());
+
+  // An object beyond max_object_distance_m.
+  addBox(*table, Eigen::Vector2f(0.65f, 0.0f), 0.0f, Eigen::Vector3f(0.05f, 0.05f, 0.1f), 0.005f, rng);
+  finish(*table);
+  TableSegmentationParams params;
+  params.max_object_distance_m = 0.5;
+  result = segmentTable(table, params);
+  EXPECT_EQ(result.failure, SegmentationFailure::ObjectOutOfReach) << result.reason;
+  EXPECT_FALSE(result.object->empty());
+
+  params = TableSegmentationParams();
+  params.cluster_tolerance_m = 0.0;
+  EXPECT_EQ(segmentTable(table, params).failure, SegmentationFailure::InvalidInput);
+}
+
+// ------------------------------------------------------------------------------------------
+// Normals
+
+TEST(NormalEstimation, SphereNormalsPointOutwardTowardTheSensor)
+{
+  // Sphere r = 5 cm at 0.6 m from the camera, rays 2 mrad apart (~1.2 mm at that range),
+  // 0.5 mm axial noise: the outward normal (p - centre) / r is the truth.
+  const Eigen::Vector3f eye(0.0f, 0.0f, 0.6f);
+  const Eigen::Vector3f centre(0.45f, 0.1f, 0.2f);
+  const float radius = 0.05f;
+  const CloudXYZ::Ptr sphere = raycastSphere(eye, centre, radius, 120, 0.002f, 0.0005f, 11);
+  ASSERT_GT(sphere->size(), 1000u);
+  finish(*sphere);
+  NormalParams params;
+  params.k_neighbours = 20;
+  const NormalResult result = estimateNormals(sphere, eye, params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  ASSERT_GT(result.cloud->size(), sphere->size() * 99 / 100);
+  EXPECT_TRUE(result.cloud->sensor_origin_.head<3>().isApprox(eye));
+  std::size_t within_10deg = 0;
+  for (const auto& p : result.cloud->points)
+  {
+    const Eigen::Vector3f n = p.getNormalVector3fMap();
+    EXPECT_NEAR(n.norm(), 1.0f, 1e-3f);
+    EXPECT_GE(n.dot(eye - p.getVector3fMap()), 0.0f) << "normal must face the sensor";
+    if (angleBetween(n, p.getVector3fMap() - centre) < 10.0 * M_PI / 180.0)
+      ++within_10deg;
+  }
+  // Grazing-angle points at the silhouette have one-sided neighbourhoods; allow 2 % there.
+  EXPECT_GE(within_10deg, result.cloud->size() * 98 / 100);
+}
+
+TEST(NormalEstimation, DownsampledNormalsAreOriginalPointsWithTheirNormals)
+{
+  // Plane z = 0, 1 mm grid over 10 x 10 cm, normals alternating in length-one tilt so that a
+  // copied normal is recognisable: each output point must be an input point with its normal.
+  CloudNormal dense;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j)
+    {
+      PointNormal p;
+      p.x = 0.0005f + 0.001f * i;
+      p.y = 0.0005f + 0.001f * j;
+      p.z = 0.0f;
+      const Eigen::Vector3f n = Eigen::Vector3f(0.001f * i, 0.0f, 1.0f).normalized();
+      p.normal_x = n.x();
+      p.normal_y = n.y();
+      p.normal_z = n.z();
+      dense.push_back(p);
+    }
+  dense.sensor_origin_ = Eigen::Vector4f(0, 0, 1, 0);
+  const CloudNormal::Ptr sparse = downsampleNormals(dense, 0.01);
+  ASSERT_EQ(sparse->size(), 100u);  // one per 1 cm voxel
+  EXPECT_TRUE(sparse->sensor_origin_.isApprox(dense.sensor_origin_));
+  for (const auto& p : sparse->points)
+  {
+    const int i = static_cast<int>(std::lround((p.x - 0.0005f) / 0.001f));
+    const int j = static_cast<int>(std::lround((p.y - 0.0005f) / 0.001f));
+    ASSERT_TRUE(i >= 0 && i < 100 && j >= 0 && j < 100);
+    EXPECT_NEAR(p.x, 0.0005f + 0.001f * i, 1e-6f);  // an original grid point
+    EXPECT_NEAR(p.normal_x, dense.points[i * 100 + j].normal_x, 1e-6f);
+    // The nearest original point to a voxel centroid is one of the four central ones.
+    EXPECT_NEAR(std::fmod(p.x, 0.01f), 0.005f, 0.0011f);
+  }
+  EXPECT_TRUE(downsampleNormals(CloudNormal(), 0.01)->empty());
+  EXPECT_EQ(downsampleNormals(dense, 0.0)->size(), dense.size());
+}
+
+TEST(NormalEstimation, BadInputGivesReasonNotThrow)
+{
+  const Eigen::Vector3f eye(0, 0, 1);
+  NormalResult result;
+  ASSERT_NO_THROW(result = estimateNormals(nullptr, eye, NormalParams()));
+  EXPECT_FALSE(result.ok);
+  ASSERT_TRUE(result.cloud);
+  EXPECT_FALSE(estimateNormals(std::make_shared<CloudXYZ>(), eye, NormalParams()).ok);
+
+  auto few = std::make_shared<CloudXYZ>();
+  for (int i = 0; i < 5; ++i)
+    few->push_back(PointXYZ(0.01f * i, 0.0f, 0.0f));
+  result = estimateNormals(few, eye, NormalParams());
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("degenerate"), std::string::npos) << result.reason;
+
+  // 50 coincident points: no plane can be fitted to any neighbourhood.
+  auto coincident = std::make_shared<CloudXYZ>();
+  for (int i = 0; i < 50; ++i)
+    coincident->push_back(PointXYZ(0.3f, 0.1f, 0.0f));
+  ASSERT_NO_THROW(result = estimateNormals(coincident, eye, NormalParams()));
+  EXPECT_FALSE(result.ok) << result.reason;
+
+  auto with_nan = std::make_shared<CloudXYZ>(*few);
+  for (int i = 0; i < 20; ++i)
+    with_nan->push_back(PointXYZ(0.01f * i, 0.02f * (i % 3), 0.0f));
+  with_nan->push_back(PointXYZ(kNaN, 0.0f, 0.0f));
+  EXPECT_FALSE(estimateNormals(with_nan, eye, NormalParams()).ok);
+  EXPECT_FALSE(estimateNormals(few, Eigen::Vector3f(kNaN, 0, 0), NormalParams()).ok);
+}
