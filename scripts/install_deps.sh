@@ -21,7 +21,7 @@ PACKAGES=(
   # ROS runtime and tools
   python3-rospy python3-rostest python3-roslaunch python3-rosmaster python3-rosbag python3-roslz4
   python3-rostopic python3-rosnode python3-rosservice python3-tf2-ros python3-lz4
-  rosbash rospack-tools ros-robot-state-publisher libnodeletlib-tools libnodelet-dev
+  rosbash rospack-tools ros-robot-state-publisher joint-state-publisher libnodeletlib-tools libnodelet-dev
   libnodelet-topic-tools-dev python3-nodelet
   # message definitions (generation) and their Python side (rostest scripts)
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-trajectory-msgs ros-visualization-msgs
@@ -31,6 +31,8 @@ PACKAGES=(
   python3-pcl-msgs python3-genpy python3-gencpp python3-genmsg
   # renderer's mesh source (pip) and bag compression
   python3-pip
+  # bench_planners' bar and box plots
+  python3-matplotlib
 )
 if [ "${FAST_GRASP_NO_RVIZ:-0}" != "1" ]; then PACKAGES+=(rviz); fi
 missing=()

@@ -30,7 +30,6 @@ class Report:
         self.order = []
         self.expect_grasps = rospy.get_param("~expect_grasps", True)
         self.expect_trajectory = rospy.get_param("~expect_trajectory", False)
-        self.arm_status = ""
 
     def frame(self, stamp):
         key = stamp.to_nsec()
@@ -47,6 +46,8 @@ class Report:
                 grasps = parts.get("grasps")
                 if self.expect_trajectory and grasps is not None and grasps.grasps:
                     needed.append("trajectory")
+        if "trajectory" in needed and "trajectory" in parts and parts["trajectory"][1] is None:
+            return False  # the plan's summary has not arrived yet
         return all(n in parts for n in needed)
 
     def on_scene(self, msg):
@@ -61,12 +62,26 @@ class Report:
 
     def on_trajectory(self, msg):
         with self.lock:
-            # The trajectory carries the stamp of the grasps it was planned for.
-            self.frame(msg.header.stamp)["trajectory"] = (msg, self.arm_status)
-            self.flush()
+            # The trajectory carries the stamp of the grasps it was planned for; its summary
+            # comes next on the arm planner's status.
+            self.frame(msg.header.stamp)["trajectory"] = (msg, None)
 
     def on_arm_status(self, msg):
-        self.arm_status = msg.data
+        with self.lock:
+            # Statuses come in planning order: a success completes the oldest trajectory still
+            # without its summary; a failure answers the oldest frame still waiting for a plan.
+            for key in self.order:
+                parts = self.frames[key]
+                if msg.data.startswith("OK"):
+                    if "trajectory" in parts and parts["trajectory"][1] is None:
+                        parts["trajectory"] = (parts["trajectory"][0], msg.data)
+                        break
+                else:
+                    grasps = parts.get("grasps")
+                    if grasps is not None and grasps.grasps and "trajectory" not in parts:
+                        parts["trajectory"] = (None, msg.data)
+                        break
+            self.flush()
 
     def flush(self):
         for key in self.order:
@@ -111,8 +126,11 @@ class Report:
                 lines.append("  no grasp: %s" % grasps.status)
         if "trajectory" in parts:
             traj, status = parts["trajectory"]
-            duration = traj.points[-1].time_from_start.to_sec() if traj.points else 0.0
-            lines.append("  trajectory: %d waypoints, %.2f s; %s" % (len(traj.points), duration, status))
+            if traj is None:
+                lines.append("  no trajectory: %s" % status)
+            else:
+                duration = traj.points[-1].time_from_start.to_sec() if traj.points else 0.0
+                lines.append("  trajectory: %d waypoints, %.2f s; %s" % (len(traj.points), duration, status))
         return "\n".join(lines)
 
 

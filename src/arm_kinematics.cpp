@@ -8,7 +8,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
-#include <chrono>
+#include <ctime>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -31,6 +31,13 @@ Eigen::Isometry3d toEigen(const KDL::Frame& f)
     t.translation()(r) = f.p(r);
   }
   return t;
+}
+
+double threadCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 /// Orientation error as a rotation vector (axis * angle) taking `current` to `target`.
@@ -273,8 +280,6 @@ void ArmKinematics::wrapIntoLimits(Eigen::VectorXd& q) const
 {
   for (Eigen::Index j = 0; j < q.size() && j < lower_rad_.size(); ++j)
   {
-    if (model_->segments.empty())
-      break;
     if (!std::isfinite(q[j]))
       continue;
     if (q[j] >= lower_rad_[j] && q[j] <= upper_rad_[j])
@@ -293,9 +298,10 @@ std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, 
   const Eigen::Index n = static_cast<Eigen::Index>(dof());
   if (!target.matrix().allFinite() || seed.size() != n || params.max_solutions < 1)
     return solutions;
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(params.timeout_s));
+  // The budget is this thread's CPU time, not wall time: on a loaded machine (2 cores shared
+  // by several builds here) preemption would otherwise turn into IK failures.
+  const double deadline = threadCpuSeconds() + params.timeout_s;
+  auto timeLeft = [deadline]() { return threadCpuSeconds() < deadline; };
   std::mt19937 rng(params.random_seed);
 
   const Eigen::Matrix3d target_rot = target.linear();
@@ -324,7 +330,7 @@ std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, 
   Eigen::Matrix<double, 6, 1> e, e_new;
   Eigen::VectorXd q(n), q_new(n), dq(n);
   bool first_attempt = true;
-  while (Clock::now() < deadline && static_cast<int>(solutions.size()) < params.max_solutions)
+  while (timeLeft() && static_cast<int>(solutions.size()) < params.max_solutions)
   {
     q = first_attempt ? seed_in_limits : randomConfiguration(rng);
     first_attempt = false;
@@ -359,7 +365,7 @@ std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, 
           lambda *= 10.0;
       }
       found = converged(e);
-      if (!improved || (Clock::now() >= deadline))
+      if (!improved || (it % 8 == 7 && !timeLeft()))
         break;  // stalled (joint limit or local minimum): restart elsewhere
     }
     if (!found || !withinLimits(q))

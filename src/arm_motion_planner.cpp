@@ -128,6 +128,33 @@ private:
   double tolerance_rad_;
 };
 
+/// Joint space whose segment count for motion validation also bounds the Cartesian motion
+/// of every robot point (see MotionPlanningParams::max_cartesian_step_m).
+class ArmStateSpace : public ob::RealVectorStateSpace
+{
+public:
+  ArmStateSpace(unsigned dof, Eigen::VectorXd lever_arms_m, double max_cartesian_step_m)
+    : ob::RealVectorStateSpace(dof), lever_arms_m_(std::move(lever_arms_m)), max_cartesian_step_m_(max_cartesian_step_m)
+  {
+  }
+  unsigned int validSegmentCount(const ob::State* s1, const ob::State* s2) const override
+  {
+    const unsigned int by_fraction = ob::RealVectorStateSpace::validSegmentCount(s1, s2);
+    if (max_cartesian_step_m_ <= 0.0)
+      return by_fraction;
+    const double* a = s1->as<StateType>()->values;
+    const double* b = s2->as<StateType>()->values;
+    double sweep_m = 0.0;
+    for (Eigen::Index j = 0; j < lever_arms_m_.size(); ++j)
+      sweep_m += std::abs(b[j] - a[j]) * lever_arms_m_[j];
+    return std::max(by_fraction, static_cast<unsigned int>(std::ceil(sweep_m / max_cartesian_step_m_)));
+  }
+
+private:
+  Eigen::VectorXd lever_arms_m_;
+  double max_cartesian_step_m_;
+};
+
 template <typename PlannerT>
 ob::PlannerPtr make(const ob::SpaceInformationPtr& si)
 {
@@ -226,7 +253,7 @@ std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::Vector
 {
   const ArmKinematics& kin = collision_.kinematics();
   const unsigned dof = static_cast<unsigned>(kin.dof());
-  auto space = std::make_shared<ob::RealVectorStateSpace>(dof);
+  auto space = std::make_shared<ArmStateSpace>(dof, collision_.jointLeverArms(), params.max_cartesian_step_m);
   ob::RealVectorBounds bounds(dof);
   for (unsigned j = 0; j < dof; ++j)
   {
@@ -300,53 +327,84 @@ MotionPlanResult ArmMotionPlanner::plan(const Eigen::VectorXd& start, const std:
     return result;
   }
 
-  const std::shared_ptr<og::SimpleSetup> setup = makeSetup(start, valid_goals, params);
+  // Lazy validation: the planner runs with the thesis's coarse motion check (fast), then every
+  // segment of its path is checked with the sound validator (no robot point moves more than
+  // max_cartesian_step_m between checks); a failing segment is re-planned locally with the
+  // sound validator, which is quick because its ends are valid and close. A path that cannot
+  // be repaired is dropped and the planner runs again within the budget.
+  MotionPlanningParams coarse = params;
+  if (params.lazy_validation)
+    coarse.max_cartesian_step_m = 0.0;
+  const std::shared_ptr<og::SimpleSetup> sound = makeSetup(start, valid_goals, params);
+  sound->setPlanner(allocatePlanner("RRTConnect", sound->getSpaceInformation(), params.planner_params));
+  sound->setup();
+  const ob::SpaceInformationPtr sound_si = sound->getSpaceInformation();
+  const std::shared_ptr<og::SimpleSetup> setup = params.lazy_validation ? makeSetup(start, valid_goals, coarse) : sound;
   ob::PlannerPtr planner = allocatePlanner(params.planner, setup->getSpaceInformation(), params.planner_params);
   setup->setPlanner(planner);
   setup->setup();
-  // Dense re-check of every path segment (see MotionPlanningParams::recheck_step_rad).
-  auto densePathValid = [&](const og::PathGeometric& path) {
-    if (params.recheck_step_rad <= 0.0)
-      return true;
+
+  auto remaining = [&]() { return params.planning_time_s - clock.elapsedSeconds(); };
+  // Returns the repaired path, or an empty one.
+  auto repair = [&](const og::PathGeometric& path) {
+    std::vector<Eigen::VectorXd> out;
+    out.push_back(toEigen(path.getState(0), dof));
     for (std::size_t k = 0; k + 1 < path.getStateCount(); ++k)
     {
-      const Eigen::VectorXd a = toEigen(path.getState(k), dof), b = toEigen(path.getState(k + 1), dof);
-      const int steps = static_cast<int>(std::ceil((b - a).cwiseAbs().maxCoeff() / params.recheck_step_rad));
-      for (int i = 1; i < steps; ++i)
-        if (!isValid(a + (b - a) * (static_cast<double>(i) / steps), params))
-          return false;
+      const ob::State* a = path.getState(k);
+      const ob::State* b = path.getState(k + 1);
+      if (sound_si->checkMotion(a, b))
+      {
+        out.push_back(toEigen(b, dof));
+        continue;
+      }
+      ++result.repaired_segments;
+      const std::shared_ptr<og::SimpleSetup> local =
+          makeSetup(toEigen(a, dof), { toEigen(b, dof) }, params);
+      local->setPlanner(allocatePlanner("RRTConnect", local->getSpaceInformation(), params.planner_params));
+      local->setup();
+      if (remaining() <= 0.0 || local->solve(remaining()) != ob::PlannerStatus::EXACT_SOLUTION)
+        return std::vector<Eigen::VectorXd>();
+      local->simplifySolution(std::max(0.005, std::min(0.05, remaining())));
+      const og::PathGeometric& detour = local->getSolutionPath();
+      for (std::size_t i = 1; i < detour.getStateCount(); ++i)
+        out.push_back(toEigen(detour.getState(i), dof));
     }
-    return true;
+    return out;
   };
   int rejected_paths = 0;
   while (true)
   {
-    const double remaining = params.planning_time_s - clock.elapsedSeconds();
-    const ob::PlannerStatus status = remaining > 0.0 ? setup->solve(remaining) : ob::PlannerStatus(ob::PlannerStatus::TIMEOUT);
+    const ob::PlannerStatus status =
+        remaining() > 0.0 ? setup->solve(remaining()) : ob::PlannerStatus(ob::PlannerStatus::TIMEOUT);
     if (status != ob::PlannerStatus::EXACT_SOLUTION || !setup->haveExactSolutionPath())
     {
       result.status = MotionPlanStatus::NoPath;
       result.message = std::string("no exact path within ") + std::to_string(params.planning_time_s) + " s (" +
-                       status.asString() + (rejected_paths ? ", " + std::to_string(rejected_paths) +
-                                                                 " paths failed the dense re-check" : std::string()) +
+                       status.asString() +
+                       (rejected_paths ? ", " + std::to_string(rejected_paths) + " paths could not be repaired" :
+                                         std::string()) +
                        ")";
       result.planning_time_s = clock.elapsedSeconds();
       return result;
     }
     if (params.simplify)
+      setup->simplifySolution(std::max(0.01, std::min(params.simplify_time_s, std::max(0.0, remaining()))));
+    result.path = params.lazy_validation ? repair(setup->getSolutionPath()) : std::vector<Eigen::VectorXd>();
+    if (!params.lazy_validation)
     {
-      const double left = std::max(0.0, params.planning_time_s - clock.elapsedSeconds());
-      setup->simplifySolution(std::max(0.01, std::min(params.simplify_time_s, left)));
+      const og::PathGeometric& path = setup->getSolutionPath();
+      for (std::size_t k = 0; k < path.getStateCount(); ++k)
+        result.path.push_back(toEigen(path.getState(k), dof));
     }
-    if (densePathValid(setup->getSolutionPath()))
+    if (!result.path.empty())
       break;
     ++rejected_paths;
     setup->clear();  // drop the planner's data and the rejected solution, then try again
   }
-  const og::PathGeometric& path = setup->getSolutionPath();
-  for (const ob::State* s : path.getStates())
-    result.path.push_back(toEigen(s, dof));
-  result.path_length_rad = path.length();
+  result.path_length_rad = 0.0;
+  for (std::size_t k = 1; k < result.path.size(); ++k)
+    result.path_length_rad += (result.path[k] - result.path[k - 1]).norm();
   result.planning_time_s = clock.elapsedSeconds();
   result.status = MotionPlanStatus::Success;
   result.message = params.planner + ": " + std::to_string(result.path.size()) + " waypoints";

@@ -94,6 +94,8 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
     readScalar(root, "simplify", p.motion.simplify);
     readScalar(root, "simplify_time_s", p.motion.simplify_time_s);
     readScalar(root, "longest_valid_segment_fraction", p.motion.longest_valid_segment_fraction);
+    readScalar(root, "max_cartesian_step_m", p.motion.max_cartesian_step_m);
+    readScalar(root, "lazy_validation", p.motion.lazy_validation);
     readScalar(root, "keep_gripper_horizontal", p.motion.keep_gripper_horizontal);
     readScalar(root, "horizontal_tolerance_rad", p.motion.horizontal_tolerance_rad);
     readScalar(root, "trajectory_step_rad", p.timing.max_step_rad);

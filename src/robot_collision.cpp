@@ -18,6 +18,10 @@ struct RobotCollision::Geometry
 {
   std::vector<CollisionGeometryPtr> shapes;  // padded FCL shapes, one per RobotShape
   std::vector<double> bounding_radius;       // of each padded shape about its origin
+  // Capsule enclosing each padded shape (segment in the shape frame + radius): a cheap,
+  // conservative pre-test that spares most of FCL's GJK calls.
+  std::vector<Eigen::Vector3d> capsule_a, capsule_b;
+  std::vector<double> capsule_radius;
 };
 
 struct RobotCollision::Scene
@@ -28,6 +32,7 @@ struct RobotCollision::Scene
     CollisionGeometryPtr geometry;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     double bounding_radius = 0.0;
+    Eigen::Vector3d half_size = Eigen::Vector3d::Zero();
   };
   double resolution_m = 0.01;
   std::shared_ptr<const octomap::OcTree> obstacles;  // null when empty
@@ -66,6 +71,96 @@ std::pair<CollisionGeometryPtr, double> makeGeometry(const RobotShape& s, double
     default:
       return { std::make_shared<fcl::Sphered>(s.size_m.x() + padding_m), s.size_m.x() + padding_m };
   }
+}
+
+/// Enclosing capsule of a padded shape, in the shape frame.
+void enclosingCapsule(const RobotShape& s, double padding_m, Eigen::Vector3d& a, Eigen::Vector3d& b, double& radius)
+{
+  a.setZero();
+  b.setZero();
+  switch (s.type)
+  {
+    case RobotShape::Type::Box:
+    {
+      const Eigen::Vector3d half = 0.5 * s.size_m + Eigen::Vector3d::Constant(padding_m);
+      Eigen::Index k = 0;
+      half.maxCoeff(&k);
+      a[k] = -half[k];
+      b[k] = half[k];
+      radius = std::hypot(half[(k + 1) % 3], half[(k + 2) % 3]);
+      break;
+    }
+    case RobotShape::Type::Cylinder:
+      a.z() = -(0.5 * s.size_m.z() + padding_m);
+      b.z() = -a.z();
+      radius = s.size_m.x() + padding_m;
+      break;
+    case RobotShape::Type::Sphere:
+    default:
+      radius = s.size_m.x() + padding_m;
+  }
+}
+
+/// Squared distance between segments [p1, q1] and [p2, q2] (Ericson, Real-Time Collision
+/// Detection, 5.1.9).
+double segmentDistanceSquared(const Eigen::Vector3d& p1, const Eigen::Vector3d& q1, const Eigen::Vector3d& p2,
+                              const Eigen::Vector3d& q2)
+{
+  const Eigen::Vector3d d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0.0, t = 0.0;
+  constexpr double kEps = 1e-12;
+  if (a <= kEps && e <= kEps)
+    return r.squaredNorm();
+  if (a <= kEps)
+    t = std::clamp(f / e, 0.0, 1.0);
+  else
+  {
+    const double c = d1.dot(r);
+    if (e <= kEps)
+      s = std::clamp(-c / a, 0.0, 1.0);
+    else
+    {
+      const double b = d1.dot(d2), denom = a * e - b * b;
+      s = denom > kEps ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0.0)
+      {
+        t = 0.0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      }
+      else if (t > 1.0)
+      {
+        t = 1.0;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return ((p1 + d1 * s) - (p2 + d2 * t)).squaredNorm();
+}
+
+/// Does segment [a, b] meet the axis-aligned box |x| <= half (slab test)?
+bool segmentHitsBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& half)
+{
+  double t0 = 0.0, t1 = 1.0;
+  const Eigen::Vector3d d = b - a;
+  for (int k = 0; k < 3; ++k)
+  {
+    if (std::abs(d[k]) < 1e-12)
+    {
+      if (std::abs(a[k]) > half[k])
+        return false;
+      continue;
+    }
+    double ta = (-half[k] - a[k]) / d[k], tb = (half[k] - a[k]) / d[k];
+    if (ta > tb)
+      std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1)
+      return false;
+  }
+  return true;
 }
 
 bool insideShape(const RobotShape& s, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double pad)
@@ -195,6 +290,12 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
     const auto g = makeGeometry(s, link_padding_m_);
     geometry->shapes.push_back(g.first);
     geometry->bounding_radius.push_back(g.second);
+    Eigen::Vector3d a, b;
+    double radius = 0.0;
+    enclosingCapsule(s, link_padding_m_, a, b, radius);
+    geometry->capsule_a.push_back(a);
+    geometry->capsule_b.push_back(b);
+    geometry->capsule_radius.push_back(radius);
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -203,6 +304,56 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
     for (std::size_t j = i + 1; j < shapes_.size(); ++j)
       if (std::abs(shapes_[i].body - shapes_[j].body) > 1)
         self_pairs_.emplace_back(i, j);
+  // Like the MoveIt Setup Assistant's "default" rule, pairs already touching in the zero
+  // configuration (with padding: e.g. the UR5 base and the lift motor, 1.5 cm apart) touch by
+  // construction and are not checked.
+  {
+    std::vector<Eigen::Isometry3d> poses;
+    shapePoses(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kinematics_.dof())), poses);
+    std::vector<std::pair<std::size_t, std::size_t>> checked;
+    for (const auto& pair : self_pairs_)
+    {
+      if (collide(geometry_->shapes[pair.first].get(), poses[pair.first], geometry_->shapes[pair.second].get(),
+                  poses[pair.second]))
+        allowed_pairs_.push_back(shapes_[pair.first].link + " / " + shapes_[pair.second].link);
+      else
+        checked.push_back(pair);
+    }
+    self_pairs_ = checked;
+  }
+  // Lever arms: joint origins at the zero pose (distances between consecutive joint origins
+  // and from a joint to the shapes it carries directly are rigid), chained by the triangle
+  // inequality.
+  {
+    const std::size_t dof = kinematics_.dof();
+    std::vector<Eigen::Isometry3d> links;
+    kinematics_.linkPoses(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dof)), links);
+    // Origin of joint k = pose of the first chain link with k + 1 moving joints before it.
+    std::vector<Eigen::Vector3d> origins(dof, Eigen::Vector3d::Zero());
+    for (std::size_t l = links.size(); l-- > 0;)
+    {
+      const int moving = kinematics_.movingJointsBefore(l);
+      if (moving >= 1)
+        origins[static_cast<std::size_t>(moving - 1)] = links[l].translation();
+    }
+    std::vector<Eigen::Isometry3d> poses;
+    shapePoses(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dof)), poses);
+    lever_arms_m_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dof));
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+    {
+      const int body = shapes_[i].body;
+      if (body < 1)
+        continue;
+      double reach = (poses[i].translation() - origins[static_cast<std::size_t>(body - 1)]).norm() +
+                     geometry_->bounding_radius[i];
+      for (int j = body - 1; j >= 0; --j)
+      {
+        lever_arms_m_[j] = std::max(lever_arms_m_[j], reach);
+        if (j > 0)
+          reach += (origins[static_cast<std::size_t>(j)] - origins[static_cast<std::size_t>(j - 1)]).norm();
+      }
+    }
+  }
   auto scene = std::make_shared<Scene>();
   scene_ = scene;
 }
@@ -249,6 +400,7 @@ void RobotCollision::addBox(const std::string& name, const Eigen::Vector3d& size
   box.geometry = std::make_shared<fcl::Boxd>(size_m.x(), size_m.y(), size_m.z());
   box.pose = pose;
   box.bounding_radius = 0.5 * size_m.norm();
+  box.half_size = 0.5 * size_m;
   scene->boxes.push_back(box);
   scene_ = scene;
 }
@@ -308,22 +460,31 @@ pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::Poin
   return out;
 }
 
-bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why) const
+namespace
 {
-  if (q.size() != static_cast<Eigen::Index>(kinematics_.dof()) || !q.allFinite())
-  {
-    if (why)
-      *why = "invalid joint vector";
-    return true;
-  }
-  std::vector<Eigen::Isometry3d> poses;
-  shapePoses(q, poses);
+/// Cheap reject before FCL: can a sphere (centre, radius) reach an oriented box?
+bool sphereMayTouchBox(const Eigen::Vector3d& centre, double radius, const Eigen::Isometry3d& box_pose,
+                       const Eigen::Vector3d& half_size)
+{
+  const Eigen::Vector3d local = box_pose.linear().transpose() * (centre - box_pose.translation());
+  const Eigen::Vector3d outside = (local.cwiseAbs() - half_size).cwiseMax(0.0);
+  return outside.squaredNorm() <= radius * radius;
+}
+}  // namespace
+
+bool RobotCollision::selfCollision(const std::vector<Eigen::Isometry3d>& poses, std::string* why) const
+{
   for (const auto& pair : self_pairs_)
   {
     const std::size_t i = pair.first, j = pair.second;
     // Bounding-sphere reject first: most pairs are far apart.
     const double reach = geometry_->bounding_radius[i] + geometry_->bounding_radius[j];
     if ((poses[i].translation() - poses[j].translation()).squaredNorm() > reach * reach)
+      continue;
+    const double capsules = geometry_->capsule_radius[i] + geometry_->capsule_radius[j];
+    if (segmentDistanceSquared(poses[i] * geometry_->capsule_a[i], poses[i] * geometry_->capsule_b[i],
+                               poses[j] * geometry_->capsule_a[j], poses[j] * geometry_->capsule_b[j]) >
+        capsules * capsules)
       continue;
     if (collide(geometry_->shapes[i].get(), poses[i], geometry_->shapes[j].get(), poses[j]))
     {
@@ -335,14 +496,32 @@ bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why)
   return false;
 }
 
+bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why) const
+{
+  if (q.size() != static_cast<Eigen::Index>(kinematics_.dof()) || !q.allFinite())
+  {
+    if (why)
+      *why = "invalid joint vector";
+    return true;
+  }
+  std::vector<Eigen::Isometry3d> poses;
+  shapePoses(q, poses);
+  return selfCollision(poses, why);
+}
+
 bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckOptions& options,
                                  std::string* why) const
 {
-  if (inSelfCollision(q, why))
+  if (q.size() != static_cast<Eigen::Index>(kinematics_.dof()) || !q.allFinite())
+  {
+    if (why)
+      *why = "invalid joint vector";
     return true;
+  }
   std::vector<Eigen::Isometry3d> poses;
   shapePoses(q, poses);
   const Scene& scene = *scene_;
+  // Environment first: with a table most invalid states are caught by one cheap box test.
   for (std::size_t i = 0; i < shapes_.size(); ++i)
   {
     if (shapes_[i].body == 0)
@@ -351,8 +530,12 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
     const double radius = geometry_->bounding_radius[i];
     for (const Scene::Box& box : scene.boxes)
     {
-      const double reach = radius + box.bounding_radius;
-      if ((poses[i].translation() - box.pose.translation()).squaredNorm() > reach * reach)
+      if (!sphereMayTouchBox(poses[i].translation(), radius, box.pose, box.half_size))
+        continue;
+      // The capsule meets the box only if its segment meets the box grown by its radius.
+      const Eigen::Isometry3d to_box = box.pose.inverse() * poses[i];
+      if (!segmentHitsBox(to_box * geometry_->capsule_a[i], to_box * geometry_->capsule_b[i],
+                          box.half_size + Eigen::Vector3d::Constant(geometry_->capsule_radius[i])))
         continue;
       if (collide(shape, poses[i], box.geometry.get(), box.pose))
       {
@@ -361,6 +544,14 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
         return true;
       }
     }
+  }
+  if (selfCollision(poses, why))
+    return true;
+  for (std::size_t i = 0; i < shapes_.size(); ++i)
+  {
+    if (shapes_[i].body == 0)
+      continue;
+    const fcl::CollisionGeometryd* shape = geometry_->shapes[i].get();
     if (scene.obstacles_fcl && collide(shape, poses[i], scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)

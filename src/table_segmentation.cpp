@@ -8,9 +8,13 @@
 #include <pcl/segmentation/extract_clusters.h>
 #include <pcl/segmentation/sac_segmentation.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
+#include <unordered_set>
+#include <utility>
 
 namespace fast_grasp
 {
@@ -81,6 +85,8 @@ std::string validateParams(const TableSegmentationParams& params)
     return "cluster_tolerance_m must be positive";
   if (params.min_cluster_points < 1 || params.max_cluster_points < params.min_cluster_points)
     return "need 1 <= min_cluster_points <= max_cluster_points";
+  if (!(params.stacked_overlap_fraction > 0.0 && params.stacked_overlap_fraction <= 1.0))
+    return "stacked_overlap_fraction must be in (0, 1]";
   if (!params.reference_point_m.allFinite() || !params.target_point_m.allFinite())
     return "reference_point_m and target_point_m must be finite";
   return {};
@@ -100,6 +106,116 @@ void finishCloud(CloudXYZ& cloud)
 {
   cloud.width = static_cast<std::uint32_t>(cloud.size());
   cloud.height = 1;
+}
+
+/// Footprint of a cluster on the table: occupied cells (cluster_tolerance_m wide) of the point
+/// projections, dilated by one cell. A hash set rather than a 2-D k-d tree: the clusters are
+/// small and the test is a single lookup per point.
+class Footprint
+{
+public:
+  Footprint(const Eigen::Vector4f& plane, double cell_m) : cell_m_(static_cast<float>(cell_m))
+  {
+    const Eigen::Vector3f normal = plane.head<3>();
+    u_ = normal.unitOrthogonal();
+    v_ = normal.cross(u_);
+  }
+  void add(const PointXYZ& p)
+  {
+    const auto [i, j] = cellOf(p);
+    for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj)
+        cells_.insert(key(i + di, j + dj));
+  }
+  bool covers(const PointXYZ& p) const
+  {
+    const auto [i, j] = cellOf(p);
+    return cells_.count(key(i, j)) > 0;
+  }
+
+private:
+  std::pair<std::int64_t, std::int64_t> cellOf(const PointXYZ& p) const
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    return { static_cast<std::int64_t>(std::floor(u_.dot(q) / cell_m_)),
+             static_cast<std::int64_t>(std::floor(v_.dot(q) / cell_m_)) };
+  }
+  static std::int64_t key(std::int64_t i, std::int64_t j) { return (i << 32) ^ (j & 0xffffffff); }
+
+  float cell_m_;
+  Eigen::Vector3f u_, v_;
+  std::unordered_set<std::int64_t> cells_;
+};
+
+/// Fraction of `points` whose projection lies on the footprint of `base`.
+double overlapFraction(const CloudXYZ& cloud, const pcl::Indices& points, const pcl::Indices& base,
+                       const Eigen::Vector4f& plane, double cell_m)
+{
+  Footprint footprint(plane, cell_m);
+  for (const auto i : base)
+    footprint.add(cloud.points[i]);
+  std::size_t over = 0;
+  for (const auto i : points)
+    over += footprint.covers(cloud.points[i]) ? 1 : 0;
+  return points.empty() ? 0.0 : static_cast<double>(over) / static_cast<double>(points.size());
+}
+
+/// Merges into clusters[target] every cluster stacked on it: one lies mostly over the other's
+/// footprint (a cap over a bottle, a stem under a glass bowl). Repeats, since a merged part
+/// extends the object. Updates target and centroids; returns the number of merged clusters.
+int mergeStackedClusters(const CloudXYZ& cloud, const Eigen::Vector4f& plane, const TableSegmentationParams& params,
+                         int& target, std::vector<pcl::PointIndices>& clusters, std::vector<Eigen::Vector3f>& centroids)
+{
+  pcl::Indices object_points = clusters[target].indices;
+  std::vector<bool> merged(clusters.size(), false);
+  int merged_count = 0;
+  for (bool changed = true; changed;)
+  {
+    changed = false;
+    for (std::size_t c = 0; c < clusters.size(); ++c)
+    {
+      if (static_cast<int>(c) == target || merged[c])
+        continue;
+      const pcl::Indices& part = clusters[c].indices;
+      if (overlapFraction(cloud, part, object_points, plane, params.cluster_tolerance_m) <
+              params.stacked_overlap_fraction &&
+          overlapFraction(cloud, object_points, part, plane, params.cluster_tolerance_m) <
+              params.stacked_overlap_fraction)
+        continue;
+      merged[c] = true;
+      changed = true;
+      ++merged_count;
+      object_points.insert(object_points.end(), part.begin(), part.end());
+    }
+  }
+  if (merged_count == 0)
+    return 0;
+  pcl::PointIndices object = clusters[target];
+  std::vector<pcl::PointIndices> kept;
+  std::vector<Eigen::Vector3f> kept_centroids;
+  for (std::size_t c = 0; c < clusters.size(); ++c)
+  {
+    if (merged[c])
+      object.indices.insert(object.indices.end(), clusters[c].indices.begin(), clusters[c].indices.end());
+    else if (static_cast<int>(c) != target)
+    {
+      kept.push_back(clusters[c]);
+      kept_centroids.push_back(centroids[c]);
+    }
+  }
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto i : object.indices)
+    sum += cloud.points[i].getVector3fMap().cast<double>();
+  // Keep the list largest first.
+  const auto position = std::find_if(kept.begin(), kept.end(), [&](const pcl::PointIndices& k) {
+    return k.indices.size() < object.indices.size();
+  });
+  target = static_cast<int>(position - kept.begin());
+  kept_centroids.insert(kept_centroids.begin() + target, (sum / static_cast<double>(object.indices.size())).cast<float>());
+  kept.insert(position, std::move(object));
+  clusters = std::move(kept);
+  centroids = std::move(kept_centroids);
+  return merged_count;
 }
 }  // namespace
 
@@ -183,7 +299,8 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
   const Stopwatch clustering_watch;
   if (candidates->size() >= static_cast<std::size_t>(params.min_cluster_points))
   {
-    auto tree = std::make_shared<pcl::search::KdTree<PointXYZ>>();
+    // Unsorted radius results: clustering only needs the neighbour set, not its order.
+    auto tree = std::make_shared<pcl::search::KdTree<PointXYZ>>(/*sorted=*/false);
     tree->setInputCloud(cloud, candidates);
     pcl::EuclideanClusterExtraction<PointXYZ> clustering;
     clustering.setClusterTolerance(params.cluster_tolerance_m);
@@ -255,6 +372,10 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
       }
     }
   }
+  if (params.merge_stacked_clusters && result.clusters.size() > 1)
+  {
+    result.merged_clusters = mergeStackedClusters(*cloud, plane, params, best, result.clusters, centroids);
+  }
   result.target_index = best;
   result.object_centroid = centroids[best];
   result.object_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
@@ -281,7 +402,10 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
   }
   std::ostringstream summary;
   summary << result.clusters.size() << " cluster(s), target " << toString(params.target) << " with "
-          << result.object->size() << " points, table " << result.table->size() << " points";
+          << result.object->size() << " points";
+  if (result.merged_clusters > 0)
+    summary << " (" << result.merged_clusters << " stacked part(s) merged)";
+  summary << ", table " << result.table->size() << " points";
   result.reason = summary.str();
   return result;
 }

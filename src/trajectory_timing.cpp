@@ -119,6 +119,10 @@ bool timeParameterize(const std::vector<Eigen::VectorXd>& waypoints, const Timin
     }
     g.u_max = u_max;
   }
+  // The interval leading into a gentle turn also shares its acceleration with the turn.
+  for (std::size_t i = 1; i < grid.size(); ++i)
+    if (grid[i].ddq.cwiseAbs().maxCoeff() > 1e-12)
+      grid[i - 1].u_max = std::min(grid[i - 1].u_max, grid[i].u_max);
 
   // Backward pass (how fast each point may be passed and still stop in time), then forward
   // pass (how fast it can be reached): the bang-bang profile of the discretised problem.

@@ -17,7 +17,7 @@ class ViewGrid
 public:
   template <typename PointT>
   bool build(const pcl::PointCloud<PointT>& cloud, const std::vector<int>& finite, const Eigen::Vector3f& origin,
-             const Eigen::Vector3f& look_at, double cell_m, int max_cells_per_side)
+             const Eigen::Vector3f& look_at, double cell_m, double min_cell_m, int max_cells_per_side)
   {
     origin_ = origin;
     forward_ = look_at - origin;
@@ -56,7 +56,7 @@ public:
       // Mean spacing from the projected area; x2.5 so a cell always holds a point inside.
       const double area_m2 = static_cast<double>(extent.x()) * extent.y() * mean_depth * mean_depth;
       cell_m = 2.5 * std::sqrt(area_m2 / static_cast<double>(projected.size()));
-      cell_m = std::max(cell_m, 1e-4);
+      cell_m = std::max({ cell_m, min_cell_m, 1e-4 });
     }
     cell_tan_ = static_cast<float>(cell_m / mean_depth);
     const float max_extent = std::max(extent.x(), extent.y());
@@ -163,7 +163,7 @@ UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vect
     unseen.failure = "no sensor origin: the unseen part is defined by the camera rays";
     return unseen;
   }
-  if (!(params.extension_m >= 0.0) || params.step_m < 0.0 || params.grid_cell_m < 0.0 ||
+  if (!(params.extension_m >= 0.0) || params.step_m < 0.0 || params.grid_cell_m < 0.0 || params.min_grid_cell_m < 0.0 ||
       params.max_grid_cells_per_side < 8)
   {
     unseen.failure = "invalid UnseenPartParams (negative length or grid smaller than 8 cells)";
@@ -192,7 +192,8 @@ UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vect
   for (std::size_t s = 0; s < sensor_origins.size(); ++s)
   {
     const double cell_m = s == 0 ? params.grid_cell_m : grids[0].cellMetres();
-    if (!grids[s].build(cloud, finite, sensor_origins[s], centroid, cell_m, params.max_grid_cells_per_side))
+    if (!grids[s].build(cloud, finite, sensor_origins[s], centroid, cell_m, params.min_grid_cell_m,
+                        params.max_grid_cells_per_side))
     {
       unseen.failure = "sensor origin " + std::to_string(s) + " coincides with the object or sees none of it";
       return unseen;

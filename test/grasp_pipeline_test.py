@@ -19,10 +19,14 @@ import yaml
 from sensor_msgs import point_cloud2
 from sensor_msgs.msg import PointCloud2
 
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory
+
 from fast_grasp.msg import GraspArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import grasp_checks  # noqa: E402
+import urdf_fk  # noqa: E402
 
 
 def load_yaml(path):
@@ -46,7 +50,16 @@ class GraspPipelineTest(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.objects = {}  # stamp ns -> N x 3
         cls.grasps = {name: [] for name in cls.planners}
+        cls.check_trajectory = rospy.get_param("~check_trajectory", False)
+        cls.arm_grasps_from = rospy.get_param("~arm_grasps_from", "")
+        cls.trajectories = []
+        cls.arm_statuses = []
+        cls.scenes = {}
         rospy.Subscriber("/normal_estimation/output", PointCloud2, cls.on_object, queue_size=5)
+        if cls.check_trajectory:
+            rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, cls.on_trajectory, queue_size=5)
+            rospy.Subscriber("/arm_planner/status", String, cls.on_arm_status, queue_size=20)
+            rospy.Subscriber("/table_segmentation/scene", PointCloud2, cls.on_scene, queue_size=5)
         for name in cls.planners:
             rospy.Subscriber("/%s/grasps" % name, GraspArray, cls.on_grasps, callback_args=name, queue_size=5)
         deadline = rospy.Time.now().to_sec() + 0  # sim time may not run yet: use wall clock below
@@ -56,6 +69,8 @@ class GraspPipelineTest(unittest.TestCase):
             with cls.lock:
                 done = all(any(g.grasps for g in cls.grasps[name]) or len(cls.grasps[name]) >= cls.truth["frames"]
                            for name in cls.planners)
+                if cls.check_trajectory:
+                    done = done and (cls.trajectories or len(cls.arm_statuses) >= cls.truth["frames"] + 1)
             if done:
                 break
             time.sleep(0.1)
@@ -66,6 +81,25 @@ class GraspPipelineTest(unittest.TestCase):
         points = np.array(list(point_cloud2.read_points(msg, field_names=("x", "y", "z"), skip_nans=True)))
         with cls.lock:
             cls.objects[msg.header.stamp.to_nsec()] = points.reshape(-1, 3)
+
+    @classmethod
+    def on_scene(cls, msg):
+        points = np.array(list(point_cloud2.read_points(msg, field_names=("x", "y", "z"), skip_nans=True)))
+        with cls.lock:
+            cls.scenes[msg.header.stamp.to_nsec()] = points.reshape(-1, 3)
+
+    @classmethod
+    def on_trajectory(cls, msg):
+        with cls.lock:
+            cls.trajectories.append((msg, cls.arm_statuses[-1] if cls.arm_statuses else ""))
+
+    @classmethod
+    def on_arm_status(cls, msg):
+        with cls.lock:
+            cls.arm_statuses.append(msg.data)
+            # The trajectory is published just before its status: attach the status late.
+            if cls.trajectories and not cls.trajectories[-1][1]:
+                cls.trajectories[-1] = (cls.trajectories[-1][0], msg.data)
 
     @classmethod
     def on_grasps(cls, msg, name):
@@ -119,9 +153,80 @@ class GraspPipelineTest(unittest.TestCase):
         self.assertGreater(float(approach @ (position - camera)), 0.0, "%s approaches from the unseen side" % label)
 
     def test_planners(self):
+        # One assertion listing every planner's problem (rosunit drops subTest messages).
+        problems = []
         for name in self.planners:
-            with self.subTest(planner=name):
+            try:
                 self.check_planner(name)
+            except AssertionError as error:
+                problems.append("%s: %s" % (name, error))
+        self.assertFalse(problems, "\n".join(problems))
+
+
+    def test_trajectory(self):
+        """Bag -> grasp -> UR5 trajectory: reaches the grasp via the pre-grasp, within the
+        joint, velocity and acceleration limits, gripper clear of the scene at 5 mm steps."""
+        if not self.check_trajectory:
+            self.skipTest("~check_trajectory is false")
+        with self.lock:
+            trajectories = list(self.trajectories)
+            statuses = list(self.arm_statuses)
+            scenes = dict(self.scenes)
+            arrays = {a.header.stamp.to_nsec(): a for a in self.grasps[self.arm_grasps_from]}
+        self.assertTrue(trajectories, "no trajectory; arm planner said: %s" % statuses[-3:])
+        traj, status = trajectories[0]
+        import re
+        match = re.search(r"grasp (\d+):", status)
+        self.assertIsNotNone(match, "arm status names no grasp: %r" % status)
+        array = arrays.get(traj.header.stamp.to_nsec())
+        self.assertIsNotNone(array, "trajectory stamp matches no GraspArray")
+        grasp = array.grasps[int(match.group(1))]
+        arm = load_yaml(rospy.get_param("~arm_config"))
+        chain = urdf_fk.UrdfChain(rospy.get_param("~urdf_file"), "base_link", arm.get("tip_link", "grasp_frame"))
+        order = [traj.joint_names.index(n) for n in chain.names]
+        q = np.array([[p.positions[i] for i in order] for p in traj.points])
+        v = np.array([[p.velocities[i] for i in order] for p in traj.points])
+        a = np.array([[p.accelerations[i] for i in order] for p in traj.points])
+        t = np.array([p.time_from_start.to_sec() for p in traj.points])
+        self.assertGreaterEqual(len(q), 3)
+        self.assertTrue(np.all(np.diff(t) > 0), "time_from_start must increase")
+        lower = np.array([j["lower"] for j in chain.moving])
+        upper = np.array([j["upper"] for j in chain.moving])
+        self.assertTrue(np.all(q >= lower - 1e-6) and np.all(q <= upper + 1e-6), "joint limits violated")
+        vmax = np.array(arm["velocity_limit_rad_s"])
+        amax = np.array(arm["acceleration_limit_rad_s2"])
+        self.assertTrue(np.all(np.abs(v) <= vmax * 1.001 + 1e-6), "velocity limit violated: %s" % np.abs(v).max(0))
+        self.assertTrue(np.all(np.abs(a) <= amax * 1.001 + 1e-6), "acceleration limit violated: %s" % np.abs(a).max(0))
+
+        gq = grasp.pose.orientation
+        g_rot = grasp_checks.quaternion_matrix(gq.x, gq.y, gq.z, gq.w)
+        g_pos = np.array([grasp.pose.position.x, grasp.pose.position.y, grasp.pose.position.z])
+        pre_pos = g_pos - arm["approach_distance_m"] * g_rot[:, 0]
+        poses = [chain.fk(qi) for qi in q]
+
+        def matches(pose, position, rotation):
+            angle = np.arccos(np.clip((np.trace(pose[:3, :3].T @ rotation) - 1) / 2, -1, 1))
+            return np.linalg.norm(pose[:3, 3] - position) < 0.002 and angle < 0.02
+
+        pre = [i for i, p in enumerate(poses) if matches(p, pre_pos, g_rot)]
+        self.assertTrue(pre, "no trajectory point at the pre-grasp")
+        at = [i for i, p in enumerate(poses) if i > pre[0] and matches(p, g_pos, g_rot)]
+        self.assertTrue(at, "no trajectory point at the grasp after the pre-grasp")
+
+        # Gripper volume against the scene (everything but the object) along the whole motion,
+        # joint-space interpolated so the tool moves at most 5 mm between checks.
+        scene = scenes.get(traj.header.stamp.to_nsec())
+        self.assertIsNotNone(scene, "no scene cloud for the trajectory's frame")
+        opening = self.gripper["max_opening_m"]
+        worst = 0
+        for i in range(len(q) - 1):
+            step = np.linalg.norm(poses[i + 1][:3, 3] - poses[i][:3, 3])
+            for s in np.linspace(0, 1, max(2, int(np.ceil(step / 0.005)) + 1)):
+                pose = chain.fk(q[i] + s * (q[i + 1] - q[i]))
+                near = scene[np.linalg.norm(scene - pose[:3, 3], axis=1) < 0.25]
+                local = grasp_checks.to_grasp_frame(near, pose[:3, 3], pose[:3, :3])
+                worst = max(worst, grasp_checks.points_in_gripper(local, self.gripper, opening))
+        self.assertLessEqual(worst, 2, "the gripper passes through %d scene points" % worst)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ import rostest
 import yaml
 from fast_grasp.msg import SegmentedScene
 from sensor_msgs.msg import PointCloud2
+from std_srvs.srv import SetBool
 
 # The truth voxels are centroids of 1 cm voxels of the visible surface, so on a curved surface
 # one can sit up to half a voxel diagonal (0.87 cm) from the nearest surface point; the cluster
@@ -38,6 +39,8 @@ CENTROID_TOLERANCE_M = 0.01
 # The pipeline drops everything lower than min_height_above_table_m (config/perception.yaml)
 # above the plane, so the truth centroid leaves that band out too.
 MIN_HEIGHT_ABOVE_TABLE_M = 0.01
+# With no new frame for this long after the first one, the bag is over.
+QUIET_S = 3.0
 
 
 def cloud_to_xyz(msg):
@@ -72,8 +75,20 @@ class PerceptionBagTest(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.scenes = {}
         cls.objects = {}
-        rospy.Subscriber('/table_segmentation/segmented_scene', SegmentedScene, cls.on_scene, queue_size=10)
-        rospy.Subscriber('/table_segmentation/object', PointCloud2, cls.on_object, queue_size=10)
+        scene_sub = rospy.Subscriber('/table_segmentation/segmented_scene', SegmentedScene, cls.on_scene,
+                                     queue_size=10)
+        object_sub = rospy.Subscriber('/table_segmentation/object', PointCloud2, cls.on_object, queue_size=10)
+        # The bag starts paused and is resumed only once this node listens: the nodelets subscribe
+        # lazily, so a frame played before the chain is connected would be lost (a one-frame bag
+        # then has nothing to test).
+        service = rospy.get_param('~pause_service', '/bag_player/pause_playback')
+        rospy.wait_for_service(service, timeout=30.0)
+        deadline = time.time() + 30.0
+        while (scene_sub.get_num_connections() == 0 or object_sub.get_num_connections() == 0) and \
+                time.time() < deadline:
+            time.sleep(0.05)
+        time.sleep(1.0)  # the lazy chain subscribes upstream, then connects to the bag player
+        rospy.ServiceProxy(service, SetBool)(False)
 
     @classmethod
     def on_scene(cls, msg):
@@ -95,11 +110,16 @@ class PerceptionBagTest(unittest.TestCase):
     def test_segmentation_matches_truth(self):
         expected_frames = int(self.truth.get('frames', 1))
         deadline = time.time() + self.timeout_s
+        last_count, last_change = 0, time.time()
         while time.time() < deadline and not rospy.is_shutdown():
             with self.lock:
-                done = len(self.scenes) >= expected_frames and all(
-                    stamp in self.objects for stamp, scene in self.scenes.items() if scene.ok)
-            if done:
+                count = len(self.scenes)
+                complete = all(stamp in self.objects for stamp, scene in self.scenes.items() if scene.ok)
+            if count != last_count:
+                last_count, last_change = count, time.time()
+            # Every frame seen, or the bag is over (frames arrive 33 ms apart; a busy pipeline
+            # drops some, by design, with its queue of one).
+            if complete and (count >= expected_frames or (count > 0 and time.time() - last_change > QUIET_S)):
                 break
             time.sleep(0.1)
         time.sleep(0.5)
@@ -113,7 +133,11 @@ class PerceptionBagTest(unittest.TestCase):
         plane_true /= np.linalg.norm(plane_true[:3])
         foot = np.asarray(self.truth['object']['position'], dtype=np.float64)
         foot = foot - (foot @ plane_true[:3] + plane_true[3]) * plane_true[:3]  # on the true plane
+        # Like with like: the pipeline cannot tell surface within min_height_above_table_m of the
+        # table from the table itself (sensor noise), and drops it by design; a pan's floor or a
+        # glass's foot lies there. Coverage is measured over the visible surface above that band.
         visible = np.asarray(self.truth['visible_points_1cm'], dtype=np.float64)
+        visible = visible[visible @ plane_true[:3] + plane_true[3] > MIN_HEIGHT_ABOVE_TABLE_M]
         centroid_true = self.truth_centroid(plane_true)
 
         for stamp, scene in sorted(scenes.items()):

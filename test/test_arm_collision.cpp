@@ -44,6 +44,21 @@ TEST(RobotCollision, ReadsTheUrdfShapes)
   for (const auto& s : collision.shapes())
     fingers += s.finger ? 1 : 0;
   EXPECT_EQ(fingers, 2);
+  // Unpadded, no non-adjacent pair touches at the zero pose; padded by 1 cm only the base
+  // and the shoulder-lift motor (1.5 cm apart by design) do, and they are then not checked.
+  EXPECT_TRUE(collision.defaultAllowedPairs().empty());
+  const RobotCollision padded(ur5(), 0.01);  // more than the 0.005 default
+  ASSERT_EQ(padded.defaultAllowedPairs().size(), 1u);
+  EXPECT_EQ(padded.defaultAllowedPairs()[0], "base_link / upper_arm_link");
+  // Lever arms: the pan joint reaches the stretched arm's fingertips, a2 + a3 + d6 + 0.16 m
+  // of gripper ~ 1.06 m (plus shape radii); each later joint reaches less.
+  const Eigen::VectorXd& lever = collision.jointLeverArms();
+  ASSERT_EQ(lever.size(), 6);
+  EXPECT_GT(lever[0], 1.0);
+  EXPECT_LT(lever[0], 1.5);
+  for (int j = 1; j < 6; ++j)
+    EXPECT_LE(lever[j], lever[j - 1] + 1e-9);
+  EXPECT_GT(lever[5], 0.16);  // wrist 3 still carries the fingertips
 }
 
 TEST(RobotCollision, FreePosesAreFree)

@@ -8,8 +8,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
+#include <vector>
 
 using namespace fast_grasp;
 
@@ -168,9 +170,56 @@ TEST(CloudPreprocess, OrganisedStrideSamplesEveryOtherPixel)
   EXPECT_EQ(result.cloud->size(), 48u);
 }
 
+TEST(CloudPreprocess, RawBufferViewMatchesThePclPath)
+{
+  // A 6 x 4 organised cloud packed as x y z rgb (16 bytes a point), one NaN pixel.
+  pcl::PointCloud<pcl::PointXYZRGB> cloud(6, 4);
+  std::vector<std::uint8_t> buffer(cloud.size() * 16, 0);
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+  {
+    const float xyz[3] = { 0.3f + 0.01f * static_cast<float>(i % 6), 0.02f * static_cast<float>(i / 6),
+                           i == 7 ? kNaN : 0.1f };
+    cloud.points[i].x = xyz[0];
+    cloud.points[i].y = xyz[1];
+    cloud.points[i].z = xyz[2];
+    std::memcpy(&buffer[i * 16], xyz, sizeof(xyz));
+  }
+  RawCloudView view;
+  view.data = buffer.data();
+  view.size_bytes = buffer.size();
+  view.width = 6;
+  view.height = 4;
+  view.point_step = 16;
+  view.row_step = 6 * 16;
+  PreprocessParams params;
+  params.leaf_size_m = 0.0;
+  params.pixel_stride = 1;
+  const PreprocessResult from_view = preprocessCloud(view, Eigen::Isometry3f::Identity(), params);
+  const PreprocessResult from_pcl = preprocessCloud(cloud, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(from_view.ok) << from_view.reason;
+  ASSERT_EQ(from_view.cloud->size(), 23u);
+  ASSERT_EQ(from_pcl.cloud->size(), 23u);
+  for (std::size_t i = 0; i < 23; ++i)
+    EXPECT_TRUE(from_view.cloud->points[i].getVector3fMap().isApprox(from_pcl.cloud->points[i].getVector3fMap()));
+
+  RawCloudView short_view = view;
+  short_view.size_bytes = buffer.size() - 1;
+  PreprocessResult result;
+  ASSERT_NO_THROW(result = preprocessCloud(short_view, Eigen::Isometry3f::Identity(), params));
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("malformed"), std::string::npos) << result.reason;
+  RawCloudView bad_offsets = view;
+  bad_offsets.z_offset = 14;
+  EXPECT_FALSE(preprocessCloud(bad_offsets, Eigen::Isometry3f::Identity(), params).ok);
+  RawCloudView empty_view;
+  EXPECT_NE(preprocessCloud(empty_view, Eigen::Isometry3f::Identity(), params).reason.find("empty"),
+            std::string::npos);
+}
+
 TEST(CloudPreprocess, BadInputGivesReasonNotThrow)
 {
-  const PreprocessParams params;
+  PreprocessParams params;
+  params.pixel_stride = 1;  // count every pixel
   const Eigen::Isometry3f identity = Eigen::Isometry3f::Identity();
   pcl::PointCloud<pcl::PointXYZRGB> raw;
   PreprocessResult result;
@@ -323,6 +372,44 @@ TEST(TableSegmentation, TwoObjectsTwentyCentimetresApartAreTwoClusters)
   EXPECT_TRUE(parseTargetCluster("largest", parsed));
   EXPECT_EQ(parsed, TargetCluster::Largest);
   EXPECT_FALSE(parseTargetCluster("biggest", parsed));
+}
+
+TEST(TableSegmentation, StackedPartSplitByAGapIsMergedIntoTheObject)
+{
+  // A bottle body (0-15 cm) and its cap (18-21 cm) with a 3 cm unseen neck between them: two
+  // Euclidean clusters (tolerance 2 cm), one object. A second box 20 cm away stays separate.
+  std::mt19937 rng(9);
+  auto cloud = std::make_shared<CloudXYZ>();
+  addPatch(*cloud, Eigen::Vector3f(0.2f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.6f,
+           0.005f, 0.001f, rng);
+  addBox(*cloud, Eigen::Vector2f(0.5f, 0.0f), 0.0f, Eigen::Vector3f(0.06f, 0.06f, 0.15f), 0.005f, rng);
+  addBox(*cloud, Eigen::Vector2f(0.5f, 0.0f), 0.18f, Eigen::Vector3f(0.03f, 0.03f, 0.03f), 0.005f, rng);
+  addBox(*cloud, Eigen::Vector2f(0.5f, 0.2f), 0.0f, Eigen::Vector3f(0.05f, 0.05f, 0.1f), 0.005f, rng);
+  finish(*cloud);
+  TableSegmentationParams params;
+  params.target = TargetCluster::ClosestToPoint;
+  params.target_point_m = Eigen::Vector3f(0.5f, 0.0f, 0.1f);
+  params.merge_stacked_clusters = false;
+  TableSegmentationResult result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 3u);
+  EXPECT_LT(result.object_max.z(), 0.16f);
+
+  params.merge_stacked_clusters = true;
+  result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.merged_clusters, 1);
+  EXPECT_EQ(result.clusters.size(), 2u);
+  EXPECT_NEAR(result.object_max.z(), 0.21f, 0.003f);  // the cap is part of the object
+  EXPECT_LT(result.object_max.y(), 0.04f);             // the neighbour is not
+  EXPECT_EQ(result.object->size(), result.clusters[result.target_index].indices.size());
+
+  // The same from the cap's side: choosing the cap gives the whole bottle too.
+  params.target_point_m = Eigen::Vector3f(0.5f, 0.0f, 0.25f);
+  result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok());
+  EXPECT_NEAR(result.object_min.z(), 0.01f, 0.006f);
+  EXPECT_NEAR(result.object_max.z(), 0.21f, 0.003f);
 }
 
 TEST(TableSegmentation, BadInputAndMissingPartsGiveTypedFailures)

@@ -136,16 +136,20 @@ TEST(SweepProjectedContour, LShapeMatchesHandComputedCrossingsAndOutline)
       if (j <= 20 || i <= 20)
         points.emplace_back(0.001f * i, 0.0005f + 0.001f * j, 0.0f);
   std::vector<Eigen::Vector2f> boundary;
-  const auto lines = sweepProjectedContour(points, 0.002, 0.002, 2, &boundary);
+  const auto lines = sweepProjectedContour(points, 0.002, 0.002, 2, 1, &boundary);
   ASSERT_EQ(lines.size(), 50u);  // y = 0, 0.002, ..., 0.098 up to y_max = 0.0995 (Eq. 3.4)
   for (const SweepLine& line : lines)
   {
     ASSERT_TRUE(line.hit) << line.y_m;
     EXPECT_NEAR(line.left_x_m, 0.0, 1e-6);
     if (line.y_m < 0.017)
+    {
       EXPECT_NEAR(line.right_x_m, 0.06, 1e-6) << line.y_m;
+    }
     else if (line.y_m > 0.023)
+    {
       EXPECT_NEAR(line.right_x_m, 0.02, 1e-6) << line.y_m;
+    }
   }
   // Boundary cells hug the L's outline (hand-written vertices) and cover all of it.
   const std::vector<Eigen::Vector2d> outline = { { 0, 0 },      { 0.06, 0 },  { 0.06, 0.02 },
@@ -182,7 +186,7 @@ TEST(SweepProjectedContour, BridgesShortGapsOnly)
     for (int j = 0; j < 100; ++j)
       if (j < 50 || j > 53)
         points.emplace_back(0.001f * i, 0.0005f + 0.001f * j, 0.0f);
-  const auto bridged = sweepProjectedContour(points, 0.002, 0.002, 2);
+  const auto bridged = sweepProjectedContour(points, 0.002, 0.002, 2, 0);
   ASSERT_EQ(bridged.size(), 50u);
   for (const SweepLine& line : bridged)
   {
@@ -190,7 +194,7 @@ TEST(SweepProjectedContour, BridgesShortGapsOnly)
     EXPECT_NEAR(line.widthM(), 0.04, 1e-6) << line.y_m;
   }
   int misses = 0;
-  for (const SweepLine& line : sweepProjectedContour(points, 0.002, 0.002, 1))
+  for (const SweepLine& line : sweepProjectedContour(points, 0.002, 0.002, 1, 0))
     misses += line.hit ? 0 : 1;
   EXPECT_EQ(misses, 2);  // a two-row hole is wider than a one-row closing
 }
@@ -277,6 +281,34 @@ TEST(PrincipalAxisGrasp, CylinderClosesAcrossTheDiameterThroughTheAxis)
   const Eigen::Vector3d normal = best.binormal().cross(Eigen::Vector3d::UnitZ()).normalized();
   EXPECT_LT(std::abs((best.position() - axis_point).dot(normal)), depth_bound);
   EXPECT_LT(horizontal(best.position() - axis_point).norm(), depth_bound);
+}
+
+TEST(PrincipalAxisGrasp, DepthNoiseDoesNotNarrowTheWidth)
+{
+  // Kinect-like axial noise along each ray (1 and 3 mm). The sweep-line crossings take row
+  // extremes over neighbouring rows, so noise that moves a row's outermost point elsewhere
+  // does not read the object narrow: widths stay those of the noise-free bounds above.
+  for (double noise_m : { 0.001, 0.003 })
+  {
+    synthetic::ViewParams camera;
+    camera.noise_stddev_m = noise_m;
+    camera.viewpoint = { 0.9, 0.25, 0.35 };
+    const double silhouette_gap = std::sqrt(2.0) * camera.spacing_m;
+    const auto cylinder = synthetic::makeCylinder({ 0.5, 0.05, 0.07 }, Eigen::Vector3d::UnitZ(), 0.03, 0.14);
+    const GraspResult round =
+        PrincipalAxisGraspPlanner().plan(viewOf(synthetic::renderView(cylinder, camera), camera.viewpoint), robotiq());
+    ASSERT_TRUE(round.ok()) << noise_m << ": " << round.message;
+    EXPECT_GE(round.grasps.front().width_m, 0.06 - 2.0 * silhouette_gap) << noise_m;
+    EXPECT_LE(round.grasps.front().width_m, 0.06 + 2.0 * noise_m) << noise_m;
+
+    camera.viewpoint = { 1.0, 0.0, 0.4 };
+    const auto box = synthetic::makeBox({ 0.5, 0.0, 0.075 }, { 0.05, 0.07, 0.15 });
+    const GraspResult flat =
+        PrincipalAxisGraspPlanner().plan(viewOf(synthetic::renderView(box, camera), camera.viewpoint), robotiq());
+    ASSERT_TRUE(flat.ok()) << noise_m << ": " << flat.message;
+    EXPECT_NEAR(flat.grasps.front().width_m, 0.07, 0.003) << noise_m;
+    EXPECT_LT(flat.grasps.front().force_balance_rad, 0.1) << noise_m;
+  }
 }
 
 TEST(PrincipalAxisGrasp, SphereWiderThanTheOpeningFailsWithoutNextView)
@@ -588,5 +620,23 @@ TEST(PrincipalAxisGrasp, ReportsComputeTimeAtTenThousandPoints)
   }
   EXPECT_TRUE(result.ok()) << result.message;
   std::cout << "[ timing ] principal_axis single view, " << view.cloud->size() << " points: " << 1e3 * total / 20
+            << " ms per plan" << std::endl;
+
+  // Two cameras 90 degrees apart, about 10k fused points, 10 virtual viewpoints.
+  synthetic::ViewParams head_camera = camera;
+  head_camera.viewpoint = { 0.4, -0.4, 0.35 };
+  head_camera.spacing_m = 0.0017;
+  camera.spacing_m = 0.0017;
+  ObjectView fused;
+  fused.cloud = fuse(*synthetic::renderView(cylinder, camera), *synthetic::renderView(cylinder, head_camera));
+  fused.sensor_origins = { camera.viewpoint.cast<float>(), head_camera.viewpoint.cast<float>() };
+  total = 0.0;
+  for (int i = 0; i < 20; ++i)
+  {
+    result = planner.plan(fused, robotiq());
+    total += result.compute_time_s;
+  }
+  EXPECT_TRUE(result.ok()) << result.message;
+  std::cout << "[ timing ] principal_axis two cameras, " << fused.cloud->size() << " points: " << 1e3 * total / 20
             << " ms per plan" << std::endl;
 }

@@ -16,7 +16,7 @@ namespace fast_grasp
 /// (5 ms budget, 1e-5 tolerance).
 struct IkParams
 {
-  double timeout_s = 0.005;                 // wall-clock budget for all restarts together
+  double timeout_s = 0.005;                 // budget for all restarts together (thread CPU time)
   double position_tolerance_m = 1e-5;
   double orientation_tolerance_rad = 1e-5;
   int max_solutions = 1;                    // stop once this many distinct solutions are found

@@ -32,18 +32,23 @@ using PlannerParameterTable = std::map<std::string, std::map<std::string, std::s
 
 struct MotionPlanningParams
 {
-  std::string planner = "RRTConnect";        // any name of ArmMotionPlanner::plannerNames()
+  std::string planner = "BiTRRT";  // any of ArmMotionPlanner::plannerNames(); see config/arm.yaml
   double planning_time_s = 3.0;              // budget for solve(); simplification comes out of it too
   double simplify_time_s = 0.2;              // at most this for path simplification
   bool simplify = true;
   /// Motion validation step as a fraction of the joint space's extent (OMPL / MoveIt
   /// longest_valid_segment_fraction; the thesis keeps MoveIt's 0.005).
   double longest_valid_segment_fraction = 0.005;
-  /// The motion validator's step above is 0.005 x 15.4 rad = 0.077 rad for a UR5 with +-pi
-  /// limits (up to 7 cm at the hand), so the final path is re-checked with joint steps of at
-  /// most recheck_step_rad (0.005 rad ~ 5 mm at 1 m); a path failing it is discarded and the
-  /// planner runs again within the budget. 0 disables the re-check.
-  double recheck_step_rad = 0.005;
+  /// The fraction above is 0.005 x 15.4 rad = 0.077 rad for a UR5 with +-pi limits: up to
+  /// 7 cm at the hand between checked states. The sound validator also bounds the Cartesian
+  /// step: no robot point moves more than max_cartesian_step_m between checked states (bound
+  /// from RobotCollision::jointLeverArms()); with shapes padded by p, a step below 2 p cannot
+  /// skip over an obstacle. 0 = OMPL's fraction alone (the thesis's setting).
+  double max_cartesian_step_m = 0.01;
+  /// Plan with the fraction alone (fast), then check the path with the sound validator and
+  /// re-plan failing segments locally (see ArmMotionPlanner::plan). false = sound validator
+  /// inside the planner (slower; what bench_planners --sound measures).
+  bool lazy_validation = true;
   /// Keep the gripper horizontal: the grasp frame's Z axis (normal of the closing plane)
   /// stays within horizontal_tolerance_rad of the vertical at every state the planner and
   /// the motion validator check (the held object stays upright).
@@ -69,7 +74,8 @@ struct MotionPlanResult
   std::string message;
   std::vector<Eigen::VectorXd> path;  // start ... goal (one of the goals), simplified
   double planning_time_s = 0.0;       // solve + simplify
-  double path_length_rad = 0.0;       // joint-space length (OMPL's path length)
+  double path_length_rad = 0.0;       // joint-space length
+  int repaired_segments = 0;          // segments re-planned by the sound validator
   bool ok() const { return status == MotionPlanStatus::Success; }
 };
 

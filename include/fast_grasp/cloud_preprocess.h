@@ -9,6 +9,7 @@
 #include <pcl/point_types.h>
 
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <string>
 
@@ -33,6 +34,22 @@ struct PreprocessParams
   std::size_t max_input_points = 2000000;
 };
 
+/// Read-only view of packed float32 x, y, z points in a byte buffer (host byte order), e.g. the
+/// data of a sensor_msgs/PointCloud2: the raw camera buffer is filtered in place, without first
+/// converting the whole frame to a pcl::PointCloud (a 640x480 frame is ~5 MB).
+struct RawCloudView
+{
+  const std::uint8_t* data = nullptr;
+  std::size_t size_bytes = 0;  // must hold height * row_step bytes
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;  // 1 for unorganised clouds
+  std::uint32_t point_step = 0;
+  std::uint32_t row_step = 0;
+  std::uint32_t x_offset = 0;
+  std::uint32_t y_offset = 4;
+  std::uint32_t z_offset = 8;
+};
+
 struct PreprocessResult
 {
   bool ok = false;
@@ -40,9 +57,11 @@ struct PreprocessResult
   /// Base frame, voxelised, dense (no NaN); sensor_origin_ = camera optical centre. Null iff !ok.
   CloudXYZ::Ptr cloud;
   std::size_t input_points = 0;
+  // Counts over the pixels sampled by pixel_stride (all points of an unorganised cloud).
   std::size_t finite_points = 0;    // finite x, y, z
   std::size_t infinite_points = 0;  // at least one +-inf coordinate (a driver bug, not "no return")
-  std::size_t in_reach_points = 0;  // finite, sampled by the stride, inside reach and height band
+  std::size_t in_reach_points = 0;  // finite, inside reach and height band
+  double voxel_time_s = 0.0;        // of the total, the voxel grid (bench_perception reports it)
 };
 
 /// Drops non-finite points, transforms each remaining point once into the base frame,
@@ -54,6 +73,11 @@ PreprocessResult preprocessCloud(const pcl::PointCloud<pcl::PointXYZRGB>& raw, c
 
 /// Same, for clouds without colour.
 PreprocessResult preprocessCloud(const CloudXYZ& raw, const Eigen::Isometry3f& camera_to_base,
+                                 const PreprocessParams& params);
+
+/// Same, straight from a raw buffer (the nodelet passes the PointCloud2 data). A view whose
+/// offsets, steps or size do not fit gives ok = false with the reason.
+PreprocessResult preprocessCloud(const RawCloudView& raw, const Eigen::Isometry3f& camera_to_base,
                                  const PreprocessParams& params);
 
 }  // namespace fast_grasp

@@ -3,7 +3,10 @@
 // sampled) surface normals, are rotated about the normal in steps of delta starting from the
 // local principal axis (Fig. 6.8), pushed in by the rule of Eq. 6.9, checked for collision
 // with the object and its unseen part (Eq. 6.8), and ranked by the local-geometry variance
-// and the force balance sigma = |atan k1| + |atan k2| (step 8). ROS-free.
+// and the force balance sigma = |atan k1| + |atan k2| (step 8). Beyond the thesis: the
+// gripper body (C + hand box behind it) must keep a clearance above the view's table plane,
+// the depth is limited so it does, and approaches from above get a small score bonus.
+// ROS-free.
 #pragma once
 
 #include "fast_grasp/grasp_types.h"
@@ -48,14 +51,24 @@ struct CShapeParams
   /// A side needs points in at least this many slices to fit its line.
   int min_side_bins = 3;
   /// Step 8: largest accepted sigma (0 = both sides perpendicular to the closing direction).
+  /// The thesis's text calls a larger sigma more stable, but sigma is the sides' angle to the
+  /// C axis, so 0 means the finger forces are normal to both sides; smaller is better here,
+  /// as DESIGN.md's force_balance_rad defines it.
   double force_balance_threshold_rad = 0.6;
+  /// The C-shape is inflated by this much for every collision test (Eq. 6.1 volume grown
+  /// by the clearance), so contacts grazing between sparse points still count.
+  double collision_clearance_m = 0.003;
   /// Points within this distance of the extreme closing coordinate form a contact.
-  double contact_tolerance_m = 0.002;
+  double contact_tolerance_m = 0.0005;
   /// Where the grasp frame's origin (the C-shape centre) ends up along the approach.
   enum class DepthRule
   {
-    /// The depth of the two contacts (the object's widest part between the fingertips),
-    /// never deeper than Eq. 6.9 allows; falls back to Eq. 6.9 if that placement collides.
+    /// Where the fingers meet the object's widest seen part: the deeper of the mean contact
+    /// depth and the depth of the inscribed circle of the seen width (Eq. 6.9 with the
+    /// object's half-width; exact for round sections whose widest part hides near the
+    /// silhouette), never deeper than Eq. 6.9 allows; falls back to Eq. 6.9 if it collides.
+    /// (Screening at the Eq. 6.9 placement first, as the thesis does, rejected ~90 % of the
+    /// grasps on synthetic boxes and cylinders: the deep C's fingers reach the unseen part.)
     ContactDepth,
     /// The C-shape centre of Eq. 6.9 exactly (deepest placement: the object touches the
     /// inner back of the C; the thesis's enveloping grasp for under-actuated grippers).
@@ -65,6 +78,24 @@ struct CShapeParams
   /// Eq. 6.8: treat the unseen part as part of the object. Disable only for debugging.
   bool use_unseen_part = true;
   UnseenPartParams unseen;
+  /// When the view has a table plane, reject every configuration whose gripper body comes
+  /// closer than table_clearance_m to the table (or goes below it). The body is the nominal
+  /// C-shape of Eq. 6.1 plus the hand box behind it: palm_thickness_m deep along -approach
+  /// behind the back of the C (depth -r2 - palm_thickness .. -r2 from the C centre), 2 r2
+  /// along the closing direction and 2 max(finger_width, w / 2) across the C plane. Without
+  /// it the planner returns low sideways C-shapes whose palm is inside the table, which the
+  /// arm planner then rejects (octomap / palm link collision).
+  bool check_table_clearance = true;
+  double table_clearance_m = 0.01;
+  /// Score bonus from_above_weight * (approach . gravity): approaches from above (+) are
+  /// easier for an arm standing on the same table, from below (-) harder. Small next to sigma,
+  /// which stays the main criterion.
+  double from_above_weight_rad = 0.05;
+  /// Coarse-to-fine: orientations whose coarse (voxel-centroid) sides already exceed the
+  /// variance or force-balance threshold by more than this factor are not re-checked at full
+  /// resolution (stability only; collision is always re-checked at full resolution). On the
+  /// bags ~90 % of the full-resolution checks failed on the variance; 0 disables the screen.
+  double coarse_screen_factor = 2.0;
   /// Score = -(sigma + variance_weight * variance + torque_weight * torque offset); the
   /// weights only break ties between grasps of similar force balance.
   double variance_weight_rad_per_m = 1.0;
@@ -96,11 +127,14 @@ struct CShapePose
 /// True when `point` lies in the gripper volume C_c = C_out - C_in - C_red of Eq. 6.1:
 /// |x| <= w/2 across the C plane, r1 <= distance from the centre in the C plane <= r2, and
 /// not in the open mouth (|closing coordinate| <= r1 and in front of the centre).
-bool insideCShape(const CShapePose& pose, const GripperModel& gripper, const Eigen::Vector3f& point);
+/// `clearance_m` inflates the C (r1 - c, r2 + c, w/2 + c), as the planner's collision check.
+bool insideCShape(const CShapePose& pose, const GripperModel& gripper, const Eigen::Vector3f& point,
+                  double clearance_m = 0.0);
 
 /// Number of points of `cloud` inside the C-shape at `pose` (brute force; for tests and
 /// for checking other obstacle sets).
-std::size_t countInsideCShape(const CShapePose& pose, const GripperModel& gripper, const CloudXYZ& cloud);
+std::size_t countInsideCShape(const CShapePose& pose, const GripperModel& gripper, const CloudXYZ& cloud,
+                              double clearance_m = 0.0);
 
 class CShapeGraspPlanner : public GraspPlanner
 {

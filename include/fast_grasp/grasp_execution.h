@@ -27,7 +27,7 @@ struct GraspExecutionParams
   double lift_distance_m = 0.10;         // straight lift (against gravity) after closing
   double cartesian_step_m = 0.005;       // IK + collision check spacing of straight segments
   double max_joint_jump_rad = 0.2;       // larger jumps between Cartesian steps = IK branch flip
-  double link_padding_m = 0.01;          // robot shapes inflated by this for planning
+  double link_padding_m = 0.005;         // robot shapes inflated by this for planning
   double octomap_resolution_m = 0.01;
   double self_filter_padding_m = 0.02;   // scene points this close to the arm are dropped
   double total_time_budget_s = 10.0;     // across all grasps tried
@@ -65,7 +65,7 @@ struct GraspPlanResult
 /// plannable within params.total_time_budget_s. Never throws on bad input: a wrong-size / NaN
 /// / in-collision start or an empty grasp list gives success = false with a status.
 GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::VectorXd& start,
-                                const std::vector<Grasp>& grasps, const GraspExecutionParams& params);
+                                const std::vector<GraspCandidate>& grasps, const GraspExecutionParams& params);
 
 /// Straight tool-frame line from the tip pose at `from` to `target`, solved step by step with
 /// IK seeded by the previous step; every state checked with `options`. Returns the joint path

@@ -21,6 +21,9 @@ struct PrincipalAxisParams
   double grid_cell_m = 0.002;
   /// Empty grid rows bridged by interpolating their neighbours' extremes (sensor holes).
   int gap_close_rows = 2;
+  /// A sweep line's crossings are the extremes over its grid row and this many rows either
+  /// side, so a row whose outermost point is missing (sparse or noisy scan) is not read narrow.
+  int crossing_window_rows = 1;
   /// A point belongs to a grasp side (contact region, Eq. 3.9) when it lies within this
   /// distance of its row's left-most / right-most point in the XOY projection.
   double side_depth_m = 0.005;
@@ -63,12 +66,13 @@ struct SweepLine
 
 /// Step 4-5 without PCL's ConcaveHull: rasterises the XOY projection of `object_points`
 /// (object-frame x, y, z) into rows of `grid_cell_m`, bridges up to `gap_close_rows` empty
-/// rows and returns one SweepLine every `sweep_step_m` from y_min to y_max. When
+/// rows, takes each row's extremes over `crossing_window_rows` rows either side and returns
+/// one SweepLine every `sweep_step_m` from y_min to y_max. When
 /// `boundary_xy` is given it receives the centres of the boundary cells of the (closed)
 /// occupancy grid: the contour drawn in place of the thesis's concave hull.
 /// Returns no lines for empty input or non-positive steps.
 std::vector<SweepLine> sweepProjectedContour(const std::vector<Eigen::Vector3f>& object_points, double sweep_step_m,
-                                             double grid_cell_m, int gap_close_rows,
+                                             double grid_cell_m, int gap_close_rows, int crossing_window_rows,
                                              std::vector<Eigen::Vector2f>* boundary_xy = nullptr);
 
 /// Ch3.5.2: virtual viewpoints q_theta_i = q_theta_0 + i * delta_theta, rotating `origin_a`

@@ -56,6 +56,13 @@ public:
   const ArmKinematics& kinematics() const { return kinematics_; }
   const std::vector<RobotShape>& shapes() const { return shapes_; }
   std::size_t skippedMeshes() const { return skipped_meshes_; }
+  /// Per joint, an upper bound (m) on the distance from the joint's axis origin to any robot
+  /// surface it moves (padded shapes). A joint-space step dq moves no robot point by more than
+  /// sum_j |dq_j| * jointLeverArms()[j]: the motion validator uses it to bound the Cartesian
+  /// gap between checked states.
+  const Eigen::VectorXd& jointLeverArms() const { return lever_arms_m_; }
+  /// Non-adjacent link pairs left unchecked because they touch in the zero configuration.
+  const std::vector<std::string>& defaultAllowedPairs() const { return allowed_pairs_; }
 
   // --- scene -----------------------------------------------------------------------------
   /// Drops the whole scene and sets the OctoMap resolution for the clouds added next.
@@ -63,8 +70,9 @@ public:
   bool resetScene(double octomap_resolution_m);
   /// Adds obstacle points (scene, unseen space behind the object) to the obstacle OctoMap.
   /// Points inside the robot's own shapes at `robot_state` (inflated by self_filter_padding_m)
-  /// and non-finite points are dropped first, so the arm never becomes its own obstacle.
-  /// Returns the number of points inserted.
+  /// and non-finite points are dropped first, so the arm never becomes its own obstacle (a
+  /// robot_state of the wrong size or with NaNs skips that filter). Returns the number of
+  /// points inserted.
   std::size_t addObstacleCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud, const Eigen::VectorXd& robot_state,
                                double self_filter_padding_m = 0.02);
   /// Replaces the target object's points (its own OctoMap, the only obstacle the fingers may
@@ -95,10 +103,14 @@ public:
   struct Geometry;
 
 private:
+  bool selfCollision(const std::vector<Eigen::Isometry3d>& shape_poses, std::string* why) const;
+
   ArmKinematics kinematics_;
   std::vector<RobotShape> shapes_;
   std::shared_ptr<const Geometry> geometry_;  // FCL shapes (padded) of shapes_
   std::vector<std::pair<std::size_t, std::size_t>> self_pairs_;  // shape pairs to check
+  std::vector<std::string> allowed_pairs_;
+  Eigen::VectorXd lever_arms_m_;
   double link_padding_m_ = 0.0;
   std::size_t skipped_meshes_ = 0;
   std::shared_ptr<const Scene> scene_;

@@ -44,6 +44,13 @@ struct TableSegmentationParams
   int min_cluster_points = 30;
   int max_cluster_points = 100000;
   TargetCluster target = TargetCluster::CenterOfView;
+  /// Clusters stacked on the target (their projection onto the table lies mostly over the
+  /// target's footprint) are parts of it that a gap split off: a transparent neck, a thin stem
+  /// lost to noise. Nothing floats, so they are merged into the object.
+  bool merge_stacked_clusters = true;
+  /// Fraction of a cluster's points that must project within cluster_tolerance_m of the
+  /// target's footprint for it to be merged.
+  double stacked_overlap_fraction = 0.5;
   Eigen::Vector3f reference_point_m = Eigen::Vector3f::Zero();  // for Nearest
   Eigen::Vector3f target_point_m = Eigen::Vector3f::Zero();     // for ClosestToPoint
   /// The chosen object's centroid must lie within this distance of `reference_point_m`
@@ -74,8 +81,11 @@ struct TableSegmentationResult
   CloudXYZ::Ptr table;   // plane inliers
   CloudXYZ::Ptr object;  // the chosen cluster (empty unless ok)
   CloudXYZ::Ptr scene;   // every input point but the object's (collision environment)
-  std::vector<pcl::PointIndices> clusters;  // into the input cloud, largest first
-  int target_index = -1;                    // into clusters, -1 if none chosen
+  /// Into the input cloud, largest first; clusters merged into the target are removed and
+  /// their points appended to clusters[target_index].
+  std::vector<pcl::PointIndices> clusters;
+  int target_index = -1;  // into clusters, -1 if none chosen
+  int merged_clusters = 0;  // how many stacked clusters were merged into the target
   Eigen::Vector3f object_centroid = Eigen::Vector3f::Zero();
   Eigen::Vector3f object_min = Eigen::Vector3f::Zero();  // axis-aligned bounds, base frame
   Eigen::Vector3f object_max = Eigen::Vector3f::Zero();

@@ -28,6 +28,8 @@ struct UnseenPartParams
   /// (2.5 x the mean point spacing estimated from the projected area, so interiors have no
   /// empty cells).
   double grid_cell_m = 0.0;
+  /// Lower bound on the automatic cell size (coarser boundaries, fewer shadow points).
+  double min_grid_cell_m = 0.0;
   /// A neighbouring cell at least this much farther from the camera makes the nearer cell an
   /// occluding edge (e.g. a handle in front of a body), which also casts a shadow.
   double depth_jump_m = 0.02;
@@ -46,6 +48,8 @@ struct UnseenPart
   std::vector<int> boundary_indices;
   /// The grid cell size actually used (metres at the object's distance).
   double grid_cell_m = 0.0;
+  /// Lower bound on the automatic cell size (coarser boundaries, fewer shadow points).
+  double min_grid_cell_m = 0.0;
   /// Empty when built; otherwise why not (no finite point, no sensor origin, ...).
   std::string failure;
 

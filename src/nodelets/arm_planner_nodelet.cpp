@@ -51,14 +51,19 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       if (!limits_problem.empty())
         throw std::runtime_error(limits_problem);
       collision_ = std::make_unique<RobotCollision>(kinematics, params_.link_padding_m);
-      std::vector<double> home;
-      private_nh_.param("home_joint_positions_rad", home, std::vector<double>{});
+      // Home pose by joint name (config/home_pose.yaml, shared with joint_state_publisher):
+      // the start state until /joint_states arrives.
+      std::map<std::string, double> home;
+      private_nh_.getParam("home_pose", home);
       home_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kinematics.dof()));
-      if (home.size() == kinematics.dof())
-        home_ = Eigen::Map<const Eigen::VectorXd>(home.data(), static_cast<Eigen::Index>(home.size()));
-      else if (!home.empty())
-        throw std::runtime_error("home_joint_positions_rad has " + std::to_string(home.size()) + " entries, the chain " +
-                                 std::to_string(kinematics.dof()));
+      for (std::size_t j = 0; j < kinematics.dof(); ++j)
+      {
+        const auto it = home.find(kinematics.jointNames()[j]);
+        if (it != home.end())
+          home_[static_cast<Eigen::Index>(j)] = it->second;
+        else if (!home.empty())
+          throw std::runtime_error("home_pose lacks joint '" + kinematics.jointNames()[j] + "'");
+      }
     }
     catch (const std::exception& e)
     {

@@ -2,6 +2,8 @@
 // the base frame (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around preprocessCloud().
 #include "fast_grasp/cloud_preprocess.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/shared_cloud.h"
+#include "fast_grasp/nodelets/tf_wait.h"
 
 #include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_conversions/pcl_conversions.h>
@@ -30,6 +32,8 @@ private:
   void process(const sensor_msgs::PointCloud2& msg);
   /// Structural checks on the message, before any conversion; empty string when usable.
   std::string checkMessage(const sensor_msgs::PointCloud2& msg) const;
+  /// Byte offset of a FLOAT32 field, -1 if absent.
+  static int fieldOffset(const sensor_msgs::PointCloud2& msg, const std::string& name);
 
   PreprocessParams params_;
   std::string base_frame_ = "base_link";
@@ -133,15 +137,22 @@ std::string CloudPreprocessNodelet::checkMessage(const sensor_msgs::PointCloud2&
   }
   for (const char* axis : { "x", "y", "z" })
   {
-    bool found = false;
-    for (const auto& field : msg.fields)
-      found = found || (field.name == axis && field.datatype == sensor_msgs::PointField::FLOAT32);
-    if (!found)
+    if (fieldOffset(msg, axis) < 0)
       return std::string("missing FLOAT32 field '") + axis + "'";
   }
+  if (msg.is_bigendian)
+    return "big-endian clouds are not supported";
   if (msg.header.frame_id.empty())
     return "empty frame_id";
   return {};
+}
+
+int CloudPreprocessNodelet::fieldOffset(const sensor_msgs::PointCloud2& msg, const std::string& name)
+{
+  for (const auto& field : msg.fields)
+    if (field.name == name && field.datatype == sensor_msgs::PointField::FLOAT32)
+      return static_cast<int>(field.offset);
+  return -1;
 }
 
 void CloudPreprocessNodelet::cloudCallback(const sensor_msgs::PointCloud2::ConstPtr& msg)
@@ -169,8 +180,8 @@ void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
   Eigen::Isometry3d camera_to_base;
   try
   {
-    const auto transform = tf_buffer_.lookupTransform(base_frame_, msg.header.frame_id, msg.header.stamp,
-                                                      ros::Duration(tf_timeout_s_));
+    const auto transform =
+        lookupTransformWallTimeout(tf_buffer_, base_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_);
     camera_to_base = tf2::transformToEigen(transform);
   }
   catch (const tf2::TransformException& e)
@@ -180,9 +191,19 @@ void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
     status_.error(why);
     return;
   }
-  // Colour is not used downstream: converting to XYZ halves the copy (16 vs 32 bytes a point).
-  pcl::PointCloud<pcl::PointXYZ> raw;
-  pcl::fromROSMsg(msg, raw);
+  // Filter straight from the message buffer: converting the whole 640x480 frame to a
+  // pcl::PointCloud first (pcl::fromROSMsg) costs 3.1 ms median on the bundled bags
+  // (bench_perception), against 7.1 ms for the whole preprocessing stage read in place.
+  RawCloudView raw;
+  raw.data = msg.data.data();
+  raw.size_bytes = msg.data.size();
+  raw.width = msg.width;
+  raw.height = msg.height;
+  raw.point_step = msg.point_step;
+  raw.row_step = msg.row_step;
+  raw.x_offset = static_cast<std::uint32_t>(fieldOffset(msg, "x"));
+  raw.y_offset = static_cast<std::uint32_t>(fieldOffset(msg, "y"));
+  raw.z_offset = static_cast<std::uint32_t>(fieldOffset(msg, "z"));
   PreprocessResult result = preprocessCloud(raw, camera_to_base.cast<float>(), params_);
   if (!result.ok)
   {
@@ -195,7 +216,7 @@ void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
   // Zero-copy hand-over: the boost pointer roscpp needs shares ownership with the core's
   // std::shared_ptr instead of copying the cloud.
   const CloudXYZ::Ptr cloud = result.cloud;
-  const boost::shared_ptr<CloudXYZ> output(cloud.get(), [cloud](CloudXYZ*) {});
+  const boost::shared_ptr<CloudXYZ> output = toBoost(cloud);
   output_pub_.publish(output);
   if (publish_address_)
   {
@@ -204,7 +225,7 @@ void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
     sent_address_pub_.publish(address);
   }
   std::ostringstream summary;
-  summary << raw.size() << " raw points (" << result.finite_points << " finite, " << result.in_reach_points
+  summary << result.input_points << " raw points (" << result.finite_points << " finite, " << result.in_reach_points
           << " sampled in reach) -> " << output->size() << " points in " << base_frame_;
   if (result.infinite_points > 0)
     status_.warn(summary.str() + "; " + result.reason);

@@ -2,6 +2,8 @@
 
 #include "fast_grasp/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
+#include "fast_grasp/nodelets/shared_cloud.h"
+#include "fast_grasp/nodelets/tf_wait.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <pcl_conversions/pcl_conversions.h>
@@ -87,7 +89,17 @@ void GraspPlannerNodelet::onInit()
   private_nh_.param("tf_timeout_s", tf_timeout_s_, 0.1);
   private_nh_.param("max_input_points", max_input_points_, 200000);
   private_nh_.param("max_marker_candidates", max_marker_candidates_, 100);
-  planner_ = makePlanner(private_nh_);
+  try
+  {
+    planner_ = makePlanner(private_nh_);
+  }
+  catch (const std::exception& e)
+  {
+    // Bad planner parameters: refuse to start (and say so) rather than plan with guesses.
+    NODELET_FATAL("Initialization failed: %s", e.what());
+    status_.error(std::string("initialization failed: ") + e.what());
+    return;
+  }
 
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
@@ -120,7 +132,7 @@ std::string GraspPlannerNodelet::lookUpSensorOrigins(const InputCloud& cloud, st
     try
     {
       const geometry_msgs::TransformStamped t =
-          tf_buffer_->lookupTransform(cloud.header.frame_id, frame, stamp, ros::Duration(tf_timeout_s_));
+          lookupTransformWallTimeout(*tf_buffer_, cloud.header.frame_id, frame, stamp, tf_timeout_s_);
       origins.emplace_back(t.transform.translation.x, t.transform.translation.y, t.transform.translation.z);
     }
     catch (const tf2::TransformException& e)
@@ -159,8 +171,7 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
   };
   try
   {
-    // Zero-copy: the PCL-side shared pointer shares ownership with the boost one.
-    const CloudNormal::ConstPtr input(cloud.get(), [keep = cloud](const CloudNormal*) mutable { keep.reset(); });
+    const CloudNormal::ConstPtr input = toStd(cloud);  // zero-copy
     const CloudCheck check = checkCloud<PointNormal>(input, static_cast<std::size_t>(max_input_points_));
     if (!check.ok)
       return publishFailure("EmptyInput: " + check.reason);
@@ -210,9 +221,13 @@ void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_ms
   clear.action = visualization_msgs::Marker::DELETEALL;
   array.markers.push_back(clear);
 
-  array.markers.push_back(pointsMarker(result.hull, "hull", colour(0.1f, 0.9f, 0.1f), 0.004));
-  array.markers.push_back(pointsMarker(result.graspable_zone, "graspable_zone", colour(0.1f, 0.3f, 1.0f), 0.006));
-  array.markers.push_back(pointsMarker(result.unseen, "unseen_part", colour(0.5f, 0.5f, 0.5f, 0.4f), 0.004));
+  // rviz flags empty POINTS markers as errors: only draw what this algorithm produced.
+  if (!result.hull.empty())
+    array.markers.push_back(pointsMarker(result.hull, "hull", colour(0.1f, 0.9f, 0.1f), 0.004));
+  if (!result.graspable_zone.empty())
+    array.markers.push_back(pointsMarker(result.graspable_zone, "graspable_zone", colour(0.1f, 0.3f, 1.0f), 0.006));
+  if (!result.unseen.empty())
+    array.markers.push_back(pointsMarker(result.unseen, "unseen_part", colour(0.5f, 0.5f, 0.5f, 0.4f), 0.004));
 
   // Candidates as arrows along their approach, red (worst) to green (best).
   const std::size_t shown = std::min<std::size_t>(result.candidates.size(), static_cast<std::size_t>(max_marker_candidates_));

@@ -2,6 +2,8 @@
 // their k-d-tree down-sampling (thesis Ch6.2 steps 2-3). Thin wrapper around estimateNormals().
 #include "fast_grasp/cloud_checks.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/shared_cloud.h"
+#include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/normal_estimation.h"
 
 #include <nodelet_topic_tools/nodelet_lazy.h>
@@ -9,6 +11,7 @@
 #include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <std_msgs/UInt64.h>
+#include <visualization_msgs/Marker.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -42,6 +45,7 @@ private:
   ros::Subscriber cloud_sub_;
   ros::Publisher output_pub_;
   ros::Publisher downsampled_pub_;
+  ros::Publisher normal_markers_pub_;  // rviz only; not a lazy trigger
   ros::Publisher received_address_pub_;
   ros::Publisher sent_address_pub_;
 };
@@ -86,6 +90,7 @@ void NormalEstimationNodelet::onInit()
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
   output_pub_ = advertise<CloudNormal>(pnh, "output", 1);
   downsampled_pub_ = advertise<CloudNormal>(pnh, "downsampled", 1);
+  normal_markers_pub_ = pnh.advertise<visualization_msgs::Marker>("normal_markers", 1);
   if (publish_address_)
   {
     received_address_pub_ = pnh.advertise<std_msgs::UInt64>("received_address", 10);
@@ -128,7 +133,7 @@ void NormalEstimationNodelet::process(const CloudConstPtr& msg)
     received_address_pub_.publish(address);
   }
   // Zero-copy view for the core: the std::shared_ptr keeps the boost one alive.
-  const CloudXYZ::ConstPtr cloud(msg.get(), [msg](const CloudXYZ*) {});
+  const CloudXYZ::ConstPtr cloud = toStd(msg);
   const CloudCheck check = checkCloud<PointXYZ>(cloud, static_cast<std::size_t>(max_input_points_));
   if (!check.ok)
   {
@@ -143,9 +148,9 @@ void NormalEstimationNodelet::process(const CloudConstPtr& msg)
   std::string viewpoint_note;
   try
   {
-    const auto transform = tf_buffer_.lookupTransform(msg->header.frame_id, sensor_frame_,
-                                                      pcl_conversions::fromPCL(msg->header.stamp),
-                                                      ros::Duration(tf_timeout_s_));
+    const ros::Time stamp = pcl_conversions::fromPCL(msg->header.stamp);
+    const auto transform =
+        lookupTransformWallTimeout(tf_buffer_, msg->header.frame_id, sensor_frame_, stamp, tf_timeout_s_);
     viewpoint = Eigen::Vector3f(transform.transform.translation.x, transform.transform.translation.y,
                                 transform.transform.translation.z);
   }
@@ -168,11 +173,36 @@ void NormalEstimationNodelet::process(const CloudConstPtr& msg)
   sparse->header = msg->header;
 
   // Zero-copy hand-over to roscpp (boost pointers sharing ownership with the core's).
-  const CloudNormal::Ptr dense_cloud = result.cloud;
-  const boost::shared_ptr<CloudNormal> dense(dense_cloud.get(), [dense_cloud](CloudNormal*) {});
-  const boost::shared_ptr<CloudNormal> downsampled(sparse.get(), [sparse](CloudNormal*) {});
+  const boost::shared_ptr<CloudNormal> dense = toBoost(result.cloud);
+  const boost::shared_ptr<CloudNormal> downsampled = toBoost(sparse);
   output_pub_.publish(dense);
   downsampled_pub_.publish(downsampled);
+  if (normal_markers_pub_.getNumSubscribers() > 0)
+  {
+    // The down-sampled normals as 2 cm line segments, for rviz.
+    visualization_msgs::Marker lines;
+    lines.header = pcl_conversions::fromPCL(sparse->header);
+    lines.ns = "normals";
+    lines.type = visualization_msgs::Marker::LINE_LIST;
+    lines.pose.orientation.w = 1.0;
+    lines.scale.x = 0.001;
+    lines.color.g = 1.0f;
+    lines.color.b = 1.0f;
+    lines.color.a = 1.0f;
+    for (const auto& p : sparse->points)
+    {
+      geometry_msgs::Point a, b;
+      a.x = p.x;
+      a.y = p.y;
+      a.z = p.z;
+      b.x = p.x + 0.02 * p.normal_x;
+      b.y = p.y + 0.02 * p.normal_y;
+      b.z = p.z + 0.02 * p.normal_z;
+      lines.points.push_back(a);
+      lines.points.push_back(b);
+    }
+    normal_markers_pub_.publish(lines);
+  }
   if (publish_address_)
   {
     std_msgs::UInt64 address;

@@ -2,6 +2,7 @@
 // (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around segmentTable().
 #include "fast_grasp/cloud_checks.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/table_segmentation.h"
 
 #include <fast_grasp/SegmentedScene.h>
@@ -20,12 +21,6 @@ namespace fast_grasp
 {
 namespace
 {
-/// Shares ownership with the core's std::shared_ptr: roscpp publishes boost pointers.
-boost::shared_ptr<CloudXYZ> toBoost(const CloudXYZ::Ptr& cloud)
-{
-  return boost::shared_ptr<CloudXYZ>(cloud.get(), [cloud](CloudXYZ*) {});
-}
-
 bool readVector3(ros::NodeHandle& pnh, const std::string& name, Eigen::Vector3f& value, std::string& bad)
 {
   std::vector<double> v{ value.x(), value.y(), value.z() };
@@ -79,6 +74,8 @@ void TableSegmentationNodelet::onInit()
   pnh.param("min_cluster_points", params_.min_cluster_points, params_.min_cluster_points);
   pnh.param("max_cluster_points", params_.max_cluster_points, params_.max_cluster_points);
   pnh.param("max_object_distance_m", params_.max_object_distance_m, params_.max_object_distance_m);
+  pnh.param("merge_stacked_clusters", params_.merge_stacked_clusters, params_.merge_stacked_clusters);
+  pnh.param("stacked_overlap_fraction", params_.stacked_overlap_fraction, params_.stacked_overlap_fraction);
   pnh.param("max_input_points", max_input_points_, max_input_points_);
   pnh.param("publish_address", publish_address_, publish_address_);
   std::string target = toString(params_.target);
@@ -160,7 +157,7 @@ void TableSegmentationNodelet::process(const CloudConstPtr& msg)
     received_address_pub_.publish(address);
   }
   // Zero-copy view for the core: the std::shared_ptr keeps the boost one alive.
-  const CloudXYZ::ConstPtr cloud(msg.get(), [msg](const CloudXYZ*) {});
+  const CloudXYZ::ConstPtr cloud = toStd(msg);
   const CloudCheck check = checkCloud<PointXYZ>(cloud, static_cast<std::size_t>(max_input_points_));
   if (!check.ok)
   {

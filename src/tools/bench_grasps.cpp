@@ -2,19 +2,21 @@
 // evaluated and best metrics, beside the thesis's own times; then each planner's median
 // time on the bags' object clouds resampled to 10 k points. Prints, never asserts.
 //
-//   rosrun fast_grasp bench_grasps [--bags DIR] [--repeats N] [--gripper FILE]
+//   rosrun fast_grasp bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]
+//
+// Perception and planner parameters are the deployed ones (config/perception.yaml values,
+// config/grasp_planners.yaml or --params).
 #include "bag_frames.h"
+#include "offline_pipeline.h"
 
-#include "fast_grasp/cloud_preprocess.h"
 #include "fast_grasp/cshape_grasp.h"
+#include "fast_grasp/grasp_planner_params.h"
 #include "fast_grasp/gripper_model.h"
-#include "fast_grasp/normal_estimation.h"
 #include "fast_grasp/principal_axis_grasp.h"
-#include "fast_grasp/table_segmentation.h"
-
-#include <pcl/common/io.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -33,6 +35,7 @@ struct Options
 {
   std::string bags_dir = std::string(FAST_GRASP_SOURCE_DIR) + "/bags";
   std::string gripper_file = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/lacquey_fetch.yaml";
+  std::string params_file = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml";
   int repeats = 21;
   std::size_t scaled_points = 10000;
 };
@@ -70,74 +73,6 @@ std::string thesisTime(const std::string& planner, const std::string& scene)
     return "<2 s (2 cams)";
   }
   return "<1 s";
-}
-
-struct PreparedView
-{
-  ObjectView view;
-  std::size_t points = 0;
-  std::string problem;  // empty when usable
-};
-
-// Perception core on one frame (or two, fused): the object with normals in base_link.
-PreparedView prepareView(const std::vector<BagFrame>& frames, const PreprocessParams& preprocess,
-                         std::size_t resample_to, std::mt19937& rng)
-{
-  PreparedView prepared;
-  CloudXYZ::Ptr merged(new CloudXYZ);
-  for (const BagFrame& frame : frames)
-  {
-    const PreprocessResult pre = preprocessCloud(*frame.cloud, frame.camera_to_base, preprocess);
-    if (!pre.ok)
-    {
-      prepared.problem = "preprocess: " + pre.reason;
-      return prepared;
-    }
-    *merged += *pre.cloud;
-    prepared.view.sensor_origins.push_back(frame.camera_to_base.translation());
-  }
-  const TableSegmentationResult seg = segmentTable(merged, TableSegmentationParams());
-  if (!seg.ok())
-  {
-    prepared.problem = "segmentation: " + seg.reason;
-    return prepared;
-  }
-  CloudXYZ::Ptr object = seg.object;
-  if (resample_to > 0)
-  {
-    // Resample to exactly resample_to points: a random subset, or every point plus
-    // jittered copies (0.3 mm, below the sensor noise) when the cloud is smaller.
-    CloudXYZ::Ptr resampled(new CloudXYZ);
-    resampled->reserve(resample_to);
-    std::vector<int> order(object->size());
-    for (std::size_t i = 0; i < order.size(); ++i)
-      order[i] = static_cast<int>(i);
-    std::shuffle(order.begin(), order.end(), rng);
-    std::normal_distribution<float> jitter(0.0f, 0.0003f);
-    for (std::size_t i = 0; i < resample_to; ++i)
-    {
-      PointXYZ p = object->points[static_cast<std::size_t>(order[i % order.size()])];
-      if (i >= order.size())
-      {
-        p.x += jitter(rng);
-        p.y += jitter(rng);
-        p.z += jitter(rng);
-      }
-      resampled->push_back(p);
-    }
-    object = resampled;
-  }
-  const NormalResult normals = estimateNormals(object, prepared.view.sensor_origins.front(), NormalParams());
-  if (!normals.ok)
-  {
-    prepared.problem = "normals: " + normals.reason;
-    return prepared;
-  }
-  prepared.view.cloud = normals.cloud;
-  prepared.view.table_plane = seg.plane;
-  prepared.view.has_table_plane = seg.has_plane;
-  prepared.points = normals.cloud->size();
-  return prepared;
 }
 
 struct Timing
@@ -184,16 +119,29 @@ int main(int argc, char** argv)
       options.repeats = std::max(1, std::atoi(argv[i + 1]));
     else if (flag == "--gripper")
       options.gripper_file = argv[i + 1];
+    else if (flag == "--params")
+      options.params_file = argv[i + 1];
     else
     {
-      std::cerr << "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE]\n";
+      std::cerr << "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]\n";
       return 2;
     }
   }
-  const GripperModel gripper = loadGripperModel(options.gripper_file);
+  GripperModel gripper;
+  GraspPlannerConfig config;
+  try
+  {
+    gripper = loadGripperModel(options.gripper_file);
+    config = loadGraspPlannerConfig(options.params_file);
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << e.what() << "\n";
+    return 1;
+  }
   std::vector<std::pair<std::string, std::unique_ptr<GraspPlanner>>> planners;
-  planners.emplace_back("principal_axis", std::make_unique<PrincipalAxisGraspPlanner>());
-  planners.emplace_back("cshape", std::make_unique<CShapeGraspPlanner>());
+  planners.emplace_back("principal_axis", std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis));
+  planners.emplace_back("cshape", std::make_unique<CShapeGraspPlanner>(config.cshape));
 
   std::vector<fs::path> bags;
   for (const auto& entry : fs::directory_iterator(options.bags_dir))
@@ -206,10 +154,11 @@ int main(int argc, char** argv)
     return 1;
   }
 
-  PreprocessParams as_deployed;  // config/perception.yaml defaults
-  PreprocessParams dense = as_deployed;
-  dense.leaf_size_m = 0.002;  // dense enough that every object reaches 10 k points by resampling
-  dense.pixel_stride = 1;
+  const ViewPreparationParams as_deployed = deployedViewPreparationParams();  // config/perception.yaml
+  ViewPreparationParams dense = as_deployed;
+  dense.preprocess.leaf_size_m = 0.002;  // dense enough that every object reaches 10 k points by resampling
+  dense.preprocess.pixel_stride = 1;
+  dense.resample_to = options.scaled_points;
   std::mt19937 rng(42);
   std::map<std::string, std::vector<double>> scaled_ms;
 
@@ -219,20 +168,21 @@ int main(int argc, char** argv)
   for (const fs::path& bag : bags)
   {
     const std::string scene = bag.stem().string();
-    std::vector<BagFrame> frames;
+    std::vector<SensorCloud> frames;
     try
     {
-      frames = { readBagFrames(bag.string(), "/camera/depth_registered/points").front() };
+      frames = { sensorCloudFromBagFrame(readBagFrames(bag.string(), "/camera/depth_registered/points").front()) };
       if (scene.rfind("two_camera", 0) == 0)
-        frames.push_back(readBagFrames(bag.string(), "/head_camera/depth_registered/points").front());
+        frames.push_back(
+            sensorCloudFromBagFrame(readBagFrames(bag.string(), "/head_camera/depth_registered/points").front()));
     }
     catch (const std::exception& e)
     {
       std::printf("%-16s %-24s skipped: %s\n", "-", scene.c_str(), e.what());
       continue;
     }
-    const PreparedView deployed = prepareView(frames, as_deployed, 0, rng);
-    const PreparedView scaled = prepareView(frames, dense, options.scaled_points, rng);
+    const PreparedView deployed = prepareView(frames, as_deployed, rng);
+    const PreparedView scaled = prepareView(frames, dense, rng);
     for (const auto& [name, planner] : planners)
     {
       if (!deployed.problem.empty() || !scaled.problem.empty())

@@ -1,13 +1,14 @@
 // OMPL planner benchmark on the UR5 scenes of config/benchmarks/*.yaml, after the thesis's
 // Ch6.3 (Tables 6.3/6.4): per scene and time limit, every planner runs --runs times through
 // ompl::tools::Benchmark (its .log opens in Planner Arena after ompl_benchmark_statistics.py),
-// then a table (solved %, time mean (sd), path length mean (sd)), a CSV of every run and PNG
+// (one log per planner: each planner runs in a child process, so an OMPL crash costs only its
+// row), then a table (solved %, time mean (sd), path length mean (sd)), a CSV of every run and PNG
 // bar/box plots (matplotlib) are written. The last lines, one per planner, read
 //   <planner> narrow_passage: solved P % median X ms      (3 s limit)
 //
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
 //                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--urdf PATH]
-//                       [--padding-m 0.01] [--check]
+//                       [--padding-m 0.005] [--cartesian-step-m 0] [--end-to-end PLANNER|none] [--check]
 #include "fast_grasp/arm_motion_planner.h"
 #include "fast_grasp/grasp_execution.h"
 
@@ -16,6 +17,8 @@
 #include <ompl/util/Console.h>
 
 #include <algorithm>
+#include <chrono>
+#include <random>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -26,6 +29,9 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #ifndef FAST_GRASP_SOURCE_DIR
 #define FAST_GRASP_SOURCE_DIR "."
@@ -90,6 +96,7 @@ struct PlannerSummary
   Stats time_s;       // solve + simplification, solved runs
   Stats length_rad;   // simplified path length, solved runs
   double median_all_ms = 0.0;  // over all runs, unsolved counted at the time limit
+  double median_solve_ms = 0.0;  // solve() alone (no simplification), same convention
 };
 
 const char* kPlotScript = R"PY(
@@ -126,7 +133,11 @@ int main(int argc, char** argv)
   std::string out_dir = "bench_planners_out";
   std::string config_dir = std::string(FAST_GRASP_SOURCE_DIR) + "/config";
   std::string urdf = std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/ur5_gripper_xtion.urdf";
-  double padding_m = 0.01;
+  double padding_m = 0.005;
+  // The OMPL runs validate motions like the thesis (longest_valid_segment_fraction alone);
+  // --cartesian-step-m 0.01 benchmarks the planners with the sound validator inside instead.
+  double cartesian_step_m = 0.0;
+  std::string end_to_end_planner = fast_grasp::MotionPlanningParams().planner;  // ArmMotionPlanner::plan() runs
   bool check_only = false;
   for (int i = 1; i < argc; ++i)
   {
@@ -155,6 +166,8 @@ int main(int argc, char** argv)
     else if (flag == "--config-dir") config_dir = value;
     else if (flag == "--urdf") urdf = value;
     else if (flag == "--padding-m") padding_m = std::atof(value.c_str());
+    else if (flag == "--cartesian-step-m") cartesian_step_m = std::atof(value.c_str());
+    else if (flag == "--end-to-end") end_to_end_planner = value;
     else
     {
       std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
@@ -169,6 +182,7 @@ int main(int argc, char** argv)
     std::sort(scenes.begin(), scenes.end());
   }
   ompl::msg::setLogLevel(ompl::msg::LOG_ERROR);
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress visible when redirected
   fs::create_directories(out_dir);
 
   fast_grasp::ArmKinematics kin;
@@ -187,6 +201,7 @@ int main(int argc, char** argv)
   std::ofstream csv(out_dir + "/runs.csv");
   csv << "scene,limit_s,planner,run,solved,time_s,length_rad\n";
   std::map<std::string, std::vector<PlannerSummary>> narrow_3s;
+  std::vector<std::string> end_to_end_lines;
   for (const std::string& scene_name : scenes)
   {
     fast_grasp::ArmScene scene;
@@ -203,6 +218,7 @@ int main(int argc, char** argv)
     fast_grasp::addSceneBoxes(scene, collision);
     const ArmMotionPlanner planner(collision);
     fast_grasp::MotionPlanningParams params = base_params;
+    params.max_cartesian_step_m = cartesian_step_m;
     params.keep_gripper_horizontal = scene.keep_gripper_horizontal;
     params.horizontal_tolerance_rad = scene.horizontal_tolerance_rad;
     Eigen::VectorXd start;
@@ -217,69 +233,157 @@ int main(int argc, char** argv)
     std::printf("scene %s: %s\n  %zu goal configurations, hand travel %.2f m, start tilt %.3f rad\n",
                 scene_name.c_str(), scene.description.c_str(), goals.size(), hand_travel, planner.gripperTiltRad(start));
     if (check_only)
+    {
+      // Cost of one validity check (the planners' inner loop), on random joint vectors.
+      std::mt19937 rng(3);
+      const int checks = 20000;
+      int valid = 0;
+      const auto t0 = std::chrono::steady_clock::now();
+      for (int c = 0; c < checks; ++c)
+        valid += planner.isValid(kin.randomConfiguration(rng), params) ? 1 : 0;
+      const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / checks;
+      std::printf("  validity check: %.1f us mean, %.1f %% of random states valid\n", us, 100.0 * valid / checks);
+      for (const std::string& pair : collision.defaultAllowedPairs())
+        std::printf("  unchecked pair (touching at zero pose): %s\n", pair.c_str());
+      for (std::size_t g = 0; g < goals.size(); ++g)
+      {
+        std::printf("  goal %zu:", g);
+        for (Eigen::Index j = 0; j < goals[g].size(); ++j)
+          std::printf(" %.3f", goals[g][j]);
+        std::printf("\n");
+      }
       continue;
+    }
     for (double limit : limits)
     {
-      const std::shared_ptr<ompl::geometric::SimpleSetup> setup = planner.makeSetup(start, goals, params);
-      ompl::tools::Benchmark benchmark(*setup, scene_name);
-      std::vector<std::string> unknown;
-      for (const std::string& name : planners)
-      {
-        ompl::base::PlannerPtr p =
-            ArmMotionPlanner::allocatePlanner(name, setup->getSpaceInformation(), params.planner_params, &unknown);
-        if (!p)
-        {
-          std::fprintf(stderr, "unknown planner %s\n", name.c_str());
-          return 2;
-        }
-        p->setName(name);
-        benchmark.addPlanner(p);
-      }
-      for (const std::string& u : unknown)
-        std::printf("  warning: OMPL has no parameter %s\n", u.c_str());
-      ompl::tools::Benchmark::Request request(limit, 4096.0, static_cast<unsigned>(runs), 0.5, false, false, true);
-      benchmark.benchmark(request);
-      std::ostringstream log_name;
-      log_name << out_dir << "/" << scene_name << "_" << limit << "s.log";
-      benchmark.saveResultsToFile(log_name.str().c_str());
-
       std::printf("\n%s, max. %.0f s computing time, %d runs (Time: solve + simplify of solved runs; "
                   "path length in rad)\n",
                   scene_name.c_str(), limit, runs);
-      std::printf("  %-12s %8s %18s %18s %12s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms");
+      std::printf("  %-12s %8s %18s %18s %10s %10s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms",
+                  "solve ms");
       std::vector<PlannerSummary> summaries;
-      for (const auto& experiment : benchmark.getRecordedExperimentData().planners)
+      for (const std::string& name : planners)
       {
-        PlannerSummary summary;
-        summary.planner = experiment.name;
-        std::vector<double> times, lengths, all_ms;
-        int solved = 0, index = 0;
-        for (const auto& run : experiment.runs)
+        // Each planner runs in its own child process: some OMPL 1.5 planners crash in some
+        // scenes (here BFMT; the thesis lost LBTRRT that way), and a crash must cost that
+        // planner's row only. The child writes its OMPL log and a CSV of its runs.
+        std::ostringstream stem;
+        stem << out_dir << "/" << scene_name << "_" << limit << "s_" << name;
+        const std::string runs_file = stem.str() + ".csv";
+        std::fflush(stdout);
+        const pid_t child = fork();
+        if (child == 0)
         {
-          const bool exact = property(run, "solved BOOLEAN", 0) > 0.5 && property(run, "approximate solution BOOLEAN", 0) < 0.5;
-          const double t = property(run, "time REAL", limit) + property(run, "simplification time REAL", 0.0);
-          const double len = property(run, "simplified solution length REAL", property(run, "solution length REAL", 0.0));
+          const std::shared_ptr<ompl::geometric::SimpleSetup> setup = planner.makeSetup(start, goals, params);
+          ompl::tools::Benchmark benchmark(*setup, scene_name);
+          std::vector<std::string> unknown;
+          ompl::base::PlannerPtr p =
+              ArmMotionPlanner::allocatePlanner(name, setup->getSpaceInformation(), params.planner_params, &unknown);
+          if (!p)
+            _exit(3);
+          for (const std::string& u : unknown)
+          {
+            std::vector<std::string> known;
+            ArmMotionPlanner::allocatePlanner(name, setup->getSpaceInformation(), {})->params().getParamNames(known);
+            std::string list;
+            for (const std::string& k : known)
+              list += " " + k;
+            std::printf("  warning: OMPL has no parameter %s (it has:%s)\n", u.c_str(), list.c_str());
+          }
+          p->setName(name);
+          benchmark.addPlanner(p);
+          ompl::tools::Benchmark::Request request(limit, 4096.0, static_cast<unsigned>(runs), 0.5, false, false, true);
+          benchmark.benchmark(request);
+          benchmark.saveResultsToFile((stem.str() + ".log").c_str());
+          std::ofstream out(runs_file);
+          for (const auto& experiment : benchmark.getRecordedExperimentData().planners)
+            for (const auto& run : experiment.runs)
+            {
+              const bool exact =
+                  property(run, "solved BOOLEAN", 0) > 0.5 && property(run, "approximate solution BOOLEAN", 0) < 0.5;
+              out << (exact ? 1 : 0) << " " << property(run, "time REAL", limit) << " "
+                  << property(run, "simplification time REAL", 0.0) << " "
+                  << property(run, "simplified solution length REAL", property(run, "solution length REAL", 0.0))
+                  << "\n";
+            }
+          out.close();
+          std::fflush(stdout);
+          _exit(0);
+        }
+        int child_status = 0;
+        waitpid(child, &child_status, 0);
+        const bool crashed = !WIFEXITED(child_status) || WEXITSTATUS(child_status) != 0;
+        PlannerSummary summary;
+        summary.planner = name;
+        std::vector<double> times, lengths, all_ms, solve_ms;
+        int solved = 0, index = 0, total = 0;
+        std::ifstream in(runs_file);
+        int exact = 0;
+        double solve_s = 0.0, simplify_s = 0.0, length = 0.0;
+        while (!crashed && in >> exact >> solve_s >> simplify_s >> length)
+        {
+          ++total;
+          const double t = solve_s + simplify_s;
           if (exact)
           {
             ++solved;
             times.push_back(t);
-            lengths.push_back(len);
+            lengths.push_back(length);
           }
           all_ms.push_back(1e3 * (exact ? t : limit));
-          csv << scene_name << "," << limit << "," << experiment.name << "," << index++ << "," << (exact ? 1 : 0) << ","
-              << t << "," << len << "\n";
+          solve_ms.push_back(1e3 * (exact ? solve_s : limit));
+          csv << scene_name << "," << limit << "," << name << "," << index++ << "," << exact << "," << t << ","
+              << length << "\n";
         }
-        summary.solved_percent = experiment.runs.empty() ? 0.0 : 100.0 * solved / experiment.runs.size();
+        std::remove(runs_file.c_str());
+        if (crashed || total == 0)
+        {
+          for (int r = 0; r < runs; ++r)
+            csv << scene_name << "," << limit << "," << name << "," << r << ",0," << limit << ",0\n";
+          all_ms.assign(static_cast<std::size_t>(runs), 1e3 * limit);
+          solve_ms = all_ms;
+          total = runs;
+        }
+        summary.solved_percent = 100.0 * solved / std::max(1, total);
         summary.time_s = stats(times);
         summary.length_rad = stats(lengths);
         summary.median_all_ms = stats(all_ms).median;
-        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %12.1f\n", summary.planner.c_str(),
+        summary.median_solve_ms = stats(solve_ms).median;
+        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %10.1f %10.1f%s\n", summary.planner.c_str(),
                     summary.solved_percent, summary.time_s.mean, summary.time_s.sd, summary.length_rad.mean,
-                    summary.length_rad.sd, summary.median_all_ms);
+                    summary.length_rad.sd, summary.median_all_ms, summary.median_solve_ms,
+                    crashed ? "  (crashed in OMPL)" : "");
+        std::fflush(stdout);
         summaries.push_back(summary);
       }
       if (scene_name == "narrow_passage" && std::abs(limit - 3.0) < 1e-9)
         narrow_3s[scene_name] = summaries;
+      // End to end, as the grasp pipeline runs it: ArmMotionPlanner::plan() with the lazy sound
+      // validation and local repair (MotionPlanningParams defaults), same scene and limit.
+      if (end_to_end_planner != "none")
+      {
+        fast_grasp::MotionPlanningParams e2e = params;
+        e2e.planner = end_to_end_planner;
+        e2e.planning_time_s = limit;
+        e2e.max_cartesian_step_m = fast_grasp::MotionPlanningParams().max_cartesian_step_m;
+        e2e.lazy_validation = true;
+        std::vector<double> ms;
+        int ok = 0, repaired = 0;
+        for (int r = 0; r < runs; ++r)
+        {
+          const fast_grasp::MotionPlanResult res = planner.plan(start, goals, e2e);
+          ok += res.ok() ? 1 : 0;
+          repaired += res.repaired_segments;
+          ms.push_back(1e3 * (res.ok() ? res.planning_time_s : limit));
+        }
+        const std::string line = "end-to-end plan() " + end_to_end_planner + " " + scene_name + ": solved " +
+                                 std::to_string(100.0 * ok / runs).substr(0, 5) + " % median " +
+                                 std::to_string(stats(ms).median).substr(0, 7) + " ms (" + std::to_string(repaired) +
+                                 " segments repaired)";
+        std::printf("  %s\n", line.c_str());
+        if (scene_name == "narrow_passage" && std::abs(limit - 3.0) < 1e-9)
+          end_to_end_lines.push_back(line);
+      }
     }
   }
   csv.close();
@@ -291,9 +395,11 @@ int main(int argc, char** argv)
     if (std::system(command.c_str()) != 0)
       std::printf("plots skipped: /usr/bin/python3 with matplotlib is needed (apt-get install python3-matplotlib)\n");
     else
-      std::printf("plots: %s/<scene>_<limit>s.png; OMPL logs: %s/*.log (ompl_benchmark_statistics.py -> Planner Arena)\n",
+      std::printf("plots: %s/<scene>_<limit>s.png; OMPL logs: %s/*.log (ompl_benchmark_statistics.py *.log -> Planner Arena)\n",
                   out_dir.c_str(), out_dir.c_str());
   }
+  for (const std::string& line : end_to_end_lines)
+    std::printf("%s\n", line.c_str());
   for (const auto& entry : narrow_3s)
     for (const PlannerSummary& s : entry.second)
       std::printf("%s narrow_passage: solved %.1f %% median %.1f ms\n", s.planner.c_str(), s.solved_percent,

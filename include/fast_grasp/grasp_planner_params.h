@@ -1,0 +1,39 @@
+// The one mapping from config/grasp_planners.yaml to the planners' parameter structs, shared by
+// the offline tool and (once switched over) the grasp nodelets, so a key means the same thing
+// everywhere. ROS-free: yaml-cpp only.
+#pragma once
+
+#include "fast_grasp/cshape_grasp.h"
+#include "fast_grasp/principal_axis_grasp.h"
+
+#include <yaml-cpp/node/node.h>
+
+#include <string>
+
+namespace fast_grasp
+{
+/// Reads the `principal_axis:` section (a map; keys as in config/grasp_planners.yaml). Missing
+/// keys keep the PrincipalAxisParams defaults; a null node gives the defaults. Throws
+/// std::runtime_error naming the key on an unknown key, a value of the wrong type or an
+/// invalid value (e.g. a non-positive step, min_points or max_grasps < 1).
+PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section);
+
+/// Reads the `cshape:` section the same way; `depth_rule` is "contact_depth" | "cshape_centre",
+/// `unseen_*` keys fill CShapeParams::unseen. The result passes CShapeParams::validate() or
+/// this throws std::runtime_error with its reason.
+CShapeParams cshapeParamsFromYaml(const YAML::Node& section);
+
+/// Both planners' parameters from one grasp_planners.yaml.
+struct GraspPlannerConfig
+{
+  PrincipalAxisParams principal_axis;
+  CShapeParams cshape;
+};
+
+/// Loads `yaml_path` and maps its `principal_axis:` and `cshape:` sections (either may be
+/// absent: defaults). Top-level keys other than those two sections are the nodelets' shared
+/// settings and are ignored here. Throws std::runtime_error with the file name on a missing or
+/// unparsable file and on any error of the two functions above.
+GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
+
+}  // namespace fast_grasp

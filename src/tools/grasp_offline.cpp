@@ -1,0 +1,623 @@
+// grasp_offline: runs the perception core and one grasp planner on a bag frame or a PCD file
+// and writes the grasps (base_link, best first) as CSV or JSON. Used for batch evaluation,
+// debugging and by the grasp-success evaluator; docs/offline_tool.md has the formats.
+//
+// Exit codes: 0 grasps written; 1 a typed failure (one line on stderr; JSON output still
+// carries the status); 2 bad arguments (usage on stderr).
+#include "bag_frames.h"
+#include "offline_pipeline.h"
+
+#include "fast_grasp/cshape_grasp.h"
+#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/principal_axis_grasp.h"
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/console/print.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace fast_grasp
+{
+namespace
+{
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitUsage = 2;
+
+const char* const kUsage =
+    "usage: grasp_offline --bag FILE [--topic T] [--frame N]\n"
+    "                   | --pcd FILE --viewpoint x,y,z [--table a,b,c,d] [--already-segmented]\n"
+    "                     [--algorithm principal_axis|cshape] [--gripper NAME_OR_FILE]\n"
+    "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
+    "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
+    "  --topic T            cloud topic (default /camera/depth_registered/points; without --topic\n"
+    "                       a bag that also has /head_camera/depth_registered/points is fused)\n"
+    "  --frame N            index of the cloud message to use (default 0)\n"
+    "  --pcd FILE           cloud in base_link (x y z fields; NaN allowed)\n"
+    "  --viewpoint x,y,z    camera optical centre in base_link (required with --pcd)\n"
+    "  --table a,b,c,d      table plane a*x+b*y+c*z+d=0 in base_link (replaces the fitted one)\n"
+    "  --already-segmented  the PCD holds the object only: no table fit, no clustering\n"
+    "  --algorithm A        principal_axis (default) or cshape\n"
+    "  --gripper G          config/grippers/G.yaml or a YAML file (default lacquey_fetch)\n"
+    "  --params FILE        planner parameters (default config/grasp_planners.yaml)\n"
+    "  --format F           csv (default) or json\n"
+    "  --output FILE        write there instead of stdout\n"
+    "  --max-grasps N       write at most N grasps (default: all the planner returns)\n";
+
+struct Options
+{
+  std::string bag_path;
+  std::string topic;  // empty: the default camera topic, fused with the head camera if present
+  int frame_index = 0;
+  std::string pcd_path;
+  std::optional<Eigen::Vector3f> viewpoint;
+  std::optional<Eigen::Vector4f> table_plane;
+  bool already_segmented = false;
+  std::string algorithm = "principal_axis";
+  std::string gripper = "lacquey_fetch";
+  std::string params_path = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml";
+  std::string format = "csv";
+  std::string output_path;  // empty: stdout
+  std::size_t max_grasps = 0;  // 0: all
+};
+
+class UsageError : public std::runtime_error
+{
+public:
+  using std::runtime_error::runtime_error;
+};
+
+double parseNumber(const std::string& flag, const std::string& text)
+{
+  std::size_t used = 0;
+  double value = 0.0;
+  try
+  {
+    value = std::stod(text, &used);
+  }
+  catch (const std::exception&)
+  {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(value))
+    throw UsageError(flag + ": '" + text + "' is not a finite number");
+  return value;
+}
+
+long long parseInteger(const std::string& flag, const std::string& text, long long minimum)
+{
+  const double value = parseNumber(flag, text);
+  if (value != std::floor(value) || value < static_cast<double>(minimum) || value > 1e9)
+    throw UsageError(flag + ": '" + text + "' must be an integer >= " + std::to_string(minimum));
+  return static_cast<long long>(value);
+}
+
+std::vector<double> parseList(const std::string& flag, const std::string& text, std::size_t count)
+{
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ','))
+    values.push_back(parseNumber(flag, item));
+  if (values.size() != count || (!text.empty() && text.back() == ','))
+    throw UsageError(flag + ": expected " + std::to_string(count) + " comma-separated numbers, got '" + text + "'");
+  return values;
+}
+
+Options parseOptions(int argc, char** argv)
+{
+  Options options;
+  bool have_topic = false;
+  bool have_frame = false;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string flag = argv[i];
+    if (flag == "--already-segmented")
+    {
+      options.already_segmented = true;
+      continue;
+    }
+    if (flag.rfind("--", 0) != 0)
+      throw UsageError("unexpected argument '" + flag + "'");
+    if (i + 1 >= argc)
+      throw UsageError(flag + " needs a value");
+    const std::string value = argv[++i];
+    if (flag == "--bag")
+      options.bag_path = value;
+    else if (flag == "--topic")
+    {
+      options.topic = value;
+      have_topic = true;
+    }
+    else if (flag == "--frame")
+    {
+      options.frame_index = static_cast<int>(parseInteger(flag, value, 0));
+      have_frame = true;
+    }
+    else if (flag == "--pcd")
+      options.pcd_path = value;
+    else if (flag == "--viewpoint")
+    {
+      const auto v = parseList(flag, value, 3);
+      options.viewpoint = Eigen::Vector3f(v[0], v[1], v[2]);
+    }
+    else if (flag == "--table")
+    {
+      const auto v = parseList(flag, value, 4);
+      if (std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) < 1e-9)
+        throw UsageError("--table: (a, b, c) must not be zero");
+      options.table_plane = Eigen::Vector4f(v[0], v[1], v[2], v[3]);
+    }
+    else if (flag == "--algorithm")
+      options.algorithm = value;
+    else if (flag == "--gripper")
+      options.gripper = value;
+    else if (flag == "--params")
+      options.params_path = value;
+    else if (flag == "--format")
+      options.format = value;
+    else if (flag == "--output")
+      options.output_path = value;
+    else if (flag == "--max-grasps")
+      options.max_grasps = static_cast<std::size_t>(parseInteger(flag, value, 1));
+    else
+      throw UsageError("unknown option '" + flag + "'");
+  }
+  if (options.bag_path.empty() == options.pcd_path.empty())
+    throw UsageError("give exactly one of --bag and --pcd");
+  if (!options.bag_path.empty() && (options.viewpoint || options.table_plane || options.already_segmented))
+    throw UsageError("--viewpoint, --table and --already-segmented go with --pcd");
+  if (!options.pcd_path.empty() && (have_topic || have_frame))
+    throw UsageError("--topic and --frame go with --bag");
+  if (!options.pcd_path.empty() && !options.viewpoint)
+    throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
+  if (options.algorithm != "principal_axis" && options.algorithm != "cshape")
+    throw UsageError("--algorithm: '" + options.algorithm + "' is neither principal_axis nor cshape");
+  if (options.format != "csv" && options.format != "json")
+    throw UsageError("--format: '" + options.format + "' is neither csv nor json");
+  return options;
+}
+
+/// A typed failure before or outside the planner: status token and one-line reason.
+struct Failure
+{
+  std::string stage;   // input | config | preprocess | segmentation | normals | planning | output
+  std::string status;  // InputError, ConfigError, NoPlane, NoGraspableZone, ...
+  std::string reason;
+};
+
+class FailureError : public std::runtime_error
+{
+public:
+  explicit FailureError(Failure failure) : std::runtime_error(failure.reason), failure_(std::move(failure)) {}
+  const Failure& failure() const { return failure_; }
+
+private:
+  Failure failure_;
+};
+
+[[noreturn]] void failInput(const std::string& reason)
+{
+  throw FailureError({ "input", "InputError", reason });
+}
+
+bool bagHasTopic(const std::string& bag_path, const std::string& topic)
+{
+  rosbag::Bag bag;
+  bag.open(bag_path, rosbag::bagmode::Read);
+  rosbag::View view(bag);
+  for (const rosbag::ConnectionInfo* connection : view.getConnections())
+    if (connection->topic == topic)
+      return true;
+  return false;
+}
+
+std::vector<SensorCloud> readBagInput(const Options& options)
+{
+  static const std::string kCameraTopic = "/camera/depth_registered/points";
+  static const std::string kHeadTopic = "/head_camera/depth_registered/points";
+  if (!fs::is_regular_file(options.bag_path))
+    failInput("no such file: " + options.bag_path);
+  try
+  {
+    const std::string topic = options.topic.empty() ? kCameraTopic : options.topic;
+    const std::vector<BagFrame> frames = readBagFrames(options.bag_path, topic);
+    if (static_cast<std::size_t>(options.frame_index) >= frames.size())
+      failInput("--frame " + std::to_string(options.frame_index) + " but " + options.bag_path + " has " +
+                std::to_string(frames.size()) + " frame(s) on " + topic);
+    const BagFrame& frame = frames[static_cast<std::size_t>(options.frame_index)];
+    std::vector<SensorCloud> clouds{ sensorCloudFromBagFrame(frame) };
+    if (options.topic.empty() && bagHasTopic(options.bag_path, kHeadTopic))
+    {
+      // Two-camera mode (Ch3.5): the head camera's frame closest in time to the hand camera's.
+      const std::vector<BagFrame> head = readBagFrames(options.bag_path, kHeadTopic);
+      const BagFrame* closest = &head.front();
+      for (const BagFrame& candidate : head)
+        if (std::abs(candidate.stamp_s - frame.stamp_s) < std::abs(closest->stamp_s - frame.stamp_s))
+          closest = &candidate;
+      clouds.push_back(sensorCloudFromBagFrame(*closest));
+    }
+    return clouds;
+  }
+  catch (const FailureError&)
+  {
+    throw;
+  }
+  catch (const std::exception& e)  // rosbag and readBagFrames report everything by exception
+  {
+    failInput(e.what());
+  }
+}
+
+std::vector<SensorCloud> readPcdInput(const Options& options)
+{
+  if (!fs::is_regular_file(options.pcd_path))
+    failInput("no such file: " + options.pcd_path);
+  // PCL 1.13's PCDReader::read dereferences past a header it failed to parse (segfault on an
+  // empty or non-PCD file), so the header is read and checked on its own first.
+  pcl::PCDReader reader;
+  pcl::PCLPointCloud2 blob;
+  Eigen::Vector4f origin;
+  Eigen::Quaternionf orientation;
+  int version = 0;
+  int data_type = 0;
+  unsigned int data_index = 0;
+  if (reader.readHeader(options.pcd_path, blob, origin, orientation, version, data_type, data_index) < 0)
+    failInput("not a PCD file (unreadable header): " + options.pcd_path);
+  if (blob.fields.empty())
+    failInput(options.pcd_path + " declares no fields");
+  if (reader.read(options.pcd_path, blob) < 0)
+    failInput("cannot read PCD file " + options.pcd_path);
+  for (const char* field : { "x", "y", "z" })
+  {
+    bool found = false;
+    for (const auto& f : blob.fields)
+      found = found || f.name == field;
+    if (!found)
+      failInput(options.pcd_path + " has no '" + field + "' field");
+  }
+  auto cloud = std::make_shared<CloudXYZ>();
+  pcl::fromPCLPointCloud2(blob, *cloud);
+  SensorCloud sensor;
+  sensor.xyz_cloud = cloud;
+  sensor.sensor_origin = options.viewpoint;  // the points are in base_link already
+  return { sensor };
+}
+
+GripperModel loadGripper(const std::string& name_or_file)
+{
+  const bool is_path = name_or_file.find('/') != std::string::npos ||
+                       fs::path(name_or_file).extension() == ".yaml" || fs::is_regular_file(name_or_file);
+  const std::string path =
+      is_path ? name_or_file : std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/" + name_or_file + ".yaml";
+  try
+  {
+    GripperModel gripper = loadGripperModel(path);
+    const std::string problem = gripper.validate();
+    if (!problem.empty())
+      throw std::runtime_error(path + ": " + problem);
+    return gripper;
+  }
+  catch (const std::exception& e)
+  {
+    throw FailureError({ "config", "ConfigError", std::string("gripper: ") + e.what() });
+  }
+}
+
+std::unique_ptr<GraspPlanner> makePlanner(const Options& options)
+{
+  GraspPlannerConfig config;
+  try
+  {
+    config = loadGraspPlannerConfig(options.params_path);
+  }
+  catch (const std::exception& e)
+  {
+    throw FailureError({ "config", "ConfigError", e.what() });
+  }
+  if (options.algorithm == "cshape")
+    return std::make_unique<CShapeGraspPlanner>(config.cshape);
+  return std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
+}
+
+// ---- output --------------------------------------------------------------------------------
+
+std::string jsonNumber(double value)
+{
+  if (!std::isfinite(value))
+    return "null";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.9g", value);
+  return text;
+}
+
+std::string csvNumber(double value)
+{
+  if (!std::isfinite(value))
+    return "nan";
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.9g", value);
+  return text;
+}
+
+std::string jsonString(const std::string& text)
+{
+  std::string out = "\"";
+  for (const char c : text)
+  {
+    switch (c)
+    {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        if (static_cast<unsigned char>(c) < 0x20)
+        {
+          char escaped[8];
+          std::snprintf(escaped, sizeof(escaped), "\\u%04x", c);
+          out += escaped;
+        }
+        else
+          out += c;
+    }
+  }
+  return out + "\"";
+}
+
+template <typename Vector>
+std::string jsonArray(const Vector& v)
+{
+  std::string out = "[";
+  for (int i = 0; i < v.size(); ++i)
+    out += (i ? ", " : "") + jsonNumber(static_cast<double>(v[i]));
+  return out + "]";
+}
+
+/// Unit quaternion of the grasp orientation, w >= 0 so that equal poses print equally.
+Eigen::Vector4d quaternionXyzw(const GraspCandidate& grasp)
+{
+  Eigen::Quaterniond q(grasp.pose.linear());
+  q.normalize();
+  if (q.w() < 0.0)
+    q.coeffs() *= -1.0;
+  return q.coeffs();  // Eigen stores x, y, z, w
+}
+
+struct Report
+{
+  std::string status = "ok";
+  std::string stage;  // empty on success
+  std::string message;
+  std::string algorithm;
+  std::string gripper;
+  std::string source;
+  std::size_t points = 0;
+  double compute_time_s = 0.0;
+  double perception_time_s = 0.0;
+  std::size_t candidates_evaluated = 0;
+  std::vector<Eigen::Vector3f> sensor_origins;
+  std::optional<Eigen::Vector4f> table_plane;
+  struct ObjectSummary
+  {
+    Eigen::Vector3f min;
+    Eigen::Vector3f max;
+    Eigen::Vector3f centroid;
+  };
+  std::optional<ObjectSummary> object;
+  std::vector<GraspCandidate> grasps;
+};
+
+const char* const kCsvHeader =
+    "rank,algorithm,x,y,z,qx,qy,qz,qw,approach_x,approach_y,approach_z,binormal_x,binormal_y,binormal_z,"
+    "axis_x,axis_y,axis_z,width_m,score,force_balance_rad,xoz_offset_m,variance_m,torque_offset_m,"
+    "gravity_offset_m";
+
+void writeCsv(std::ostream& out, const Report& report)
+{
+  out << kCsvHeader << "\n";
+  for (std::size_t i = 0; i < report.grasps.size(); ++i)
+  {
+    const GraspCandidate& g = report.grasps[i];
+    out << i + 1 << "," << (g.algorithm.empty() ? report.algorithm : g.algorithm);
+    const Eigen::Vector4d q = quaternionXyzw(g);
+    for (const Eigen::Vector3d& v : { g.position(), Eigen::Vector3d(q.head<3>()) })
+      out << "," << csvNumber(v.x()) << "," << csvNumber(v.y()) << "," << csvNumber(v.z());
+    out << "," << csvNumber(q.w());
+    for (const Eigen::Vector3d& v : { g.approach(), g.binormal(), g.axis() })
+      out << "," << csvNumber(v.x()) << "," << csvNumber(v.y()) << "," << csvNumber(v.z());
+    for (const double value : { g.width_m, g.score, g.force_balance_rad, g.xoz_offset_m, g.variance_m,
+                                g.torque_offset_m, g.gravity_offset_m })
+      out << "," << csvNumber(value);
+    out << "\n";
+  }
+}
+
+void writeJson(std::ostream& out, const Report& report)
+{
+  out << "{\n";
+  out << "  \"status\": " << jsonString(report.status) << ",\n";
+  if (!report.stage.empty())
+    out << "  \"stage\": " << jsonString(report.stage) << ",\n";
+  out << "  \"message\": " << jsonString(report.message) << ",\n";
+  out << "  \"algorithm\": " << jsonString(report.algorithm) << ",\n";
+  out << "  \"gripper\": " << jsonString(report.gripper) << ",\n";
+  out << "  \"source\": " << jsonString(report.source) << ",\n";
+  out << "  \"frame\": \"base_link\",\n";
+  out << "  \"points\": " << report.points << ",\n";
+  out << "  \"compute_time_s\": " << jsonNumber(report.compute_time_s) << ",\n";
+  out << "  \"perception_time_s\": " << jsonNumber(report.perception_time_s) << ",\n";
+  out << "  \"candidates_evaluated\": " << report.candidates_evaluated << ",\n";
+  out << "  \"sensor_origins\": [";
+  for (std::size_t i = 0; i < report.sensor_origins.size(); ++i)
+    out << (i ? ", " : "") << jsonArray(report.sensor_origins[i]);
+  out << "],\n";
+  out << "  \"table_plane\": " << (report.table_plane ? jsonArray(*report.table_plane) : "null") << ",\n";
+  if (report.object)
+    out << "  \"object_centroid\": " << jsonArray(report.object->centroid) << ",\n"
+        << "  \"object_min\": " << jsonArray(report.object->min) << ",\n"
+        << "  \"object_max\": " << jsonArray(report.object->max) << ",\n";
+  out << "  \"grasps\": [";
+  for (std::size_t i = 0; i < report.grasps.size(); ++i)
+  {
+    const GraspCandidate& g = report.grasps[i];
+    out << (i ? ",\n" : "\n") << "    {\"rank\": " << i + 1
+        << ", \"algorithm\": " << jsonString(g.algorithm.empty() ? report.algorithm : g.algorithm)
+        << ", \"position\": " << jsonArray(g.position())
+        << ", \"quaternion_xyzw\": " << jsonArray(quaternionXyzw(g))
+        << ", \"approach\": " << jsonArray(g.approach()) << ", \"binormal\": " << jsonArray(g.binormal())
+        << ", \"axis\": " << jsonArray(g.axis()) << ", \"width_m\": " << jsonNumber(g.width_m)
+        << ", \"score\": " << jsonNumber(g.score) << ", \"force_balance_rad\": " << jsonNumber(g.force_balance_rad)
+        << ", \"xoz_offset_m\": " << jsonNumber(g.xoz_offset_m) << ", \"variance_m\": " << jsonNumber(g.variance_m)
+        << ", \"torque_offset_m\": " << jsonNumber(g.torque_offset_m)
+        << ", \"gravity_offset_m\": " << jsonNumber(g.gravity_offset_m) << "}";
+  }
+  out << (report.grasps.empty() ? "]\n" : "\n  ]\n") << "}\n";
+}
+
+/// Writes the report where asked; false (with a reason on stderr) if it cannot.
+bool writeReport(const Options& options, const Report& report)
+{
+  std::ofstream file;
+  if (!options.output_path.empty())
+  {
+    file.open(options.output_path);
+    if (!file)
+    {
+      std::cerr << "grasp_offline: OutputError: cannot write " << options.output_path << "\n";
+      return false;
+    }
+  }
+  std::ostream& out = options.output_path.empty() ? std::cout : file;
+  if (options.format == "json")
+    writeJson(out, report);
+  else
+    writeCsv(out, report);
+  out.flush();
+  if (!out)
+  {
+    std::cerr << "grasp_offline: OutputError: writing " << (options.output_path.empty() ? "stdout" : options.output_path)
+              << " failed\n";
+    return false;
+  }
+  return true;
+}
+
+int run(const Options& options)
+{
+  Report report;
+  report.algorithm = options.algorithm;
+  report.source = options.bag_path.empty() ? options.pcd_path : options.bag_path;
+  auto finishFailure = [&](const Failure& failure) {
+    report.status = failure.status;
+    report.stage = failure.stage;
+    report.message = failure.reason;
+    report.grasps.clear();
+    // The one line a caller reads; flatten any line breaks from library messages.
+    std::string line = failure.reason;
+    for (char& c : line)
+      if (c == '\n' || c == '\r')
+        c = ' ';
+    std::cerr << "grasp_offline: " << failure.status << ": " << line << "\n";
+    writeReport(options, report);
+    return kExitFailure;
+  };
+
+  try
+  {
+    const GripperModel gripper = loadGripper(options.gripper);
+    report.gripper = gripper.name;
+    const std::unique_ptr<GraspPlanner> planner = makePlanner(options);
+    const std::vector<SensorCloud> clouds = options.bag_path.empty() ? readPcdInput(options) : readBagInput(options);
+
+    ViewPreparationParams perception = deployedViewPreparationParams();
+    perception.segment_table = !options.already_segmented;
+    perception.table_plane = options.table_plane;
+    std::mt19937 rng(0);
+    const Stopwatch perception_watch;
+    const PreparedView prepared = prepareView(clouds, perception, rng);
+    report.perception_time_s = perception_watch.elapsedSeconds();
+    report.sensor_origins = prepared.view.sensor_origins;
+    if (!prepared.ok())
+      return finishFailure({ toString(prepared.failed_stage), prepared.status, prepared.problem });
+    report.points = prepared.points;
+    if (prepared.view.has_table_plane)
+      report.table_plane = prepared.view.table_plane;
+    report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
+
+    const Stopwatch planning_watch;
+    GraspResult result = planner->plan(prepared.view, gripper);
+    const double planning_s = planning_watch.elapsedSeconds();
+    report.compute_time_s = result.compute_time_s > 0.0 ? result.compute_time_s : planning_s;
+    report.candidates_evaluated = result.candidates_evaluated;
+    if (!result.ok())
+    {
+      const GraspFailure why = result.failure == GraspFailure::None ? GraspFailure::NoStableGrasp : result.failure;
+      return finishFailure({ "planning", toString(why), result.message.empty() ? "no grasp" : result.message });
+    }
+    report.message = result.message;
+    report.grasps = std::move(result.grasps);
+    if (options.max_grasps > 0 && report.grasps.size() > options.max_grasps)
+      report.grasps.resize(options.max_grasps);
+    return writeReport(options, report) ? kExitOk : kExitFailure;
+  }
+  catch (const FailureError& e)
+  {
+    return finishFailure(e.failure());
+  }
+  catch (const std::exception& e)  // never crash on bad input: anything unexpected is a failure
+  {
+    return finishFailure({ "internal", "InternalError", e.what() });
+  }
+}
+
+}  // namespace
+}  // namespace fast_grasp
+
+int main(int argc, char** argv)
+{
+  // PCL's own console messages (e.g. the PCD reader's) would add lines to the one-line reason.
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h")
+    {
+      std::cout << fast_grasp::kUsage;
+      return fast_grasp::kExitOk;
+    }
+  fast_grasp::Options options;
+  try
+  {
+    options = fast_grasp::parseOptions(argc, argv);
+  }
+  catch (const fast_grasp::UsageError& e)
+  {
+    std::cerr << "grasp_offline: " << e.what() << "\n" << fast_grasp::kUsage;
+    return fast_grasp::kExitUsage;
+  }
+  return fast_grasp::run(options);
+}

@@ -1,0 +1,238 @@
+#include "offline_pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+namespace fast_grasp
+{
+namespace
+{
+PreparedView fail(PreparedView prepared, ViewStage stage, std::string status, const std::string& reason)
+{
+  prepared.failed_stage = stage;
+  prepared.status = std::move(status);
+  prepared.problem = std::string(toString(stage)) + ": " + reason;
+  prepared.view.cloud.reset();
+  prepared.points = 0;
+  return prepared;
+}
+
+const char* statusOf(SegmentationFailure failure)
+{
+  switch (failure)
+  {
+    case SegmentationFailure::None:
+      return "ok";
+    case SegmentationFailure::InvalidInput:
+      return "InvalidInput";
+    case SegmentationFailure::NoPlane:
+      return "NoPlane";
+    case SegmentationFailure::NoCluster:
+      return "NoCluster";
+    case SegmentationFailure::ObjectOutOfReach:
+      return "ObjectOutOfReach";
+  }
+  return "SegmentationFailed";
+}
+
+/// A cloud saved in the base frame carries no camera orientation; aim the camera at the
+/// points' centroid so that the centre-of-view target choice picks what the view is centred on.
+void setSensorPose(CloudXYZ& cloud, const Eigen::Vector3f& origin)
+{
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& p : cloud.points)
+    sum += p.getVector3fMap().cast<double>();
+  const Eigen::Vector3f centroid = (sum / static_cast<double>(std::max<std::size_t>(1, cloud.size()))).cast<float>();
+  cloud.sensor_origin_ = Eigen::Vector4f(origin.x(), origin.y(), origin.z(), 0.0f);
+  const Eigen::Vector3f look = centroid - origin;
+  cloud.sensor_orientation_ = look.norm() > 1e-6f ? Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), look)
+                                                  : Eigen::Quaternionf::Identity();
+}
+}  // namespace
+
+const char* toString(ViewStage stage)
+{
+  switch (stage)
+  {
+    case ViewStage::None:
+      return "none";
+    case ViewStage::Preprocess:
+      return "preprocess";
+    case ViewStage::Segmentation:
+      return "segmentation";
+    case ViewStage::Normals:
+      return "normals";
+  }
+  return "unknown";
+}
+
+ViewPreparationParams deployedViewPreparationParams()
+{
+  ViewPreparationParams params;
+  params.preprocess.min_z_m = -0.5;
+  params.preprocess.max_z_m = 1.5;
+  params.segmentation.max_object_distance_m = 0.80;
+  return params;
+}
+
+SensorCloud sensorCloudFromBagFrame(const BagFrame& frame)
+{
+  SensorCloud sensor;
+  sensor.rgb_cloud = frame.cloud;
+  sensor.cloud_to_base = frame.camera_to_base;
+  return sensor;
+}
+
+PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPreparationParams& params, std::mt19937& rng)
+{
+  PreparedView prepared;
+  if (clouds.empty())
+    return fail(prepared, ViewStage::Preprocess, "PreprocessFailed", "no input cloud");
+
+  // Preprocess each camera on its own (its own transform and voxel grid) and concatenate; the
+  // merged cloud keeps the first camera's pose, which aims the target-cluster choice.
+  CloudXYZ::Ptr merged;
+  std::vector<std::size_t> first_index_of_camera;  // provenance: camera c owns [first[c], first[c+1])
+  for (std::size_t c = 0; c < clouds.size(); ++c)
+  {
+    const SensorCloud& sensor = clouds[c];
+    if (static_cast<bool>(sensor.rgb_cloud) == static_cast<bool>(sensor.xyz_cloud))
+      return fail(prepared, ViewStage::Preprocess, "PreprocessFailed", "camera " + std::to_string(c) +
+                                                                           ": expected exactly one cloud");
+    const PreprocessResult pre = sensor.rgb_cloud
+                                     ? preprocessCloud(*sensor.rgb_cloud, sensor.cloud_to_base, params.preprocess)
+                                     : preprocessCloud(*sensor.xyz_cloud, sensor.cloud_to_base, params.preprocess);
+    if (!pre.ok || !pre.cloud)
+      return fail(prepared, ViewStage::Preprocess, "PreprocessFailed",
+                  (clouds.size() > 1 ? "camera " + std::to_string(c) + ": " : std::string()) + pre.reason);
+    if (sensor.sensor_origin)
+    {
+      if (!sensor.sensor_origin->allFinite())
+        return fail(prepared, ViewStage::Preprocess, "PreprocessFailed", "sensor origin is not finite");
+      setSensorPose(*pre.cloud, *sensor.sensor_origin);
+    }
+    prepared.view.sensor_origins.push_back(pre.cloud->sensor_origin_.head<3>());
+    first_index_of_camera.push_back(merged ? merged->size() : 0);
+    if (!merged)
+      merged = pre.cloud;
+    else
+      *merged += *pre.cloud;  // concatenation keeps merged's sensor pose (PCL copies none)
+  }
+  first_index_of_camera.push_back(merged->size());
+  auto cameraOf = [&first_index_of_camera](std::size_t merged_index) {
+    const auto after = std::upper_bound(first_index_of_camera.begin(), first_index_of_camera.end(), merged_index);
+    return static_cast<std::size_t>(after - first_index_of_camera.begin()) - 1;
+  };
+
+  std::vector<int> object_indices;
+  if (params.segment_table)
+  {
+    const TableSegmentationResult seg = segmentTable(merged, params.segmentation);
+    if (!seg.ok())
+      return fail(prepared, ViewStage::Segmentation, statusOf(seg.failure), seg.reason);
+    if (seg.target_index < 0 || static_cast<std::size_t>(seg.target_index) >= seg.clusters.size())
+      return fail(prepared, ViewStage::Segmentation, "NoCluster", "no target cluster chosen");
+    object_indices = seg.clusters[static_cast<std::size_t>(seg.target_index)].indices;
+    prepared.view.table_plane = seg.plane;
+    prepared.view.has_table_plane = seg.has_plane;
+  }
+  else
+  {
+    object_indices.resize(merged->size());
+    std::iota(object_indices.begin(), object_indices.end(), 0);
+  }
+
+  // The object cloud and, per point, the camera that saw it.
+  CloudXYZ::Ptr object(new CloudXYZ);
+  object->header = merged->header;
+  object->sensor_origin_ = merged->sensor_origin_;
+  object->sensor_orientation_ = merged->sensor_orientation_;
+  std::vector<std::size_t> camera_of_point;
+  if (params.resample_to > 0 && !object_indices.empty())
+  {
+    // Resample to exactly resample_to points: a random subset, or every point plus
+    // jittered copies (0.3 mm, below the sensor noise) when the cloud is smaller.
+    std::vector<int> order = object_indices;
+    std::shuffle(order.begin(), order.end(), rng);
+    std::normal_distribution<float> jitter(0.0f, 0.0003f);
+    object->reserve(params.resample_to);
+    for (std::size_t i = 0; i < params.resample_to; ++i)
+    {
+      const auto source = static_cast<std::size_t>(order[i % order.size()]);
+      PointXYZ p = merged->points[source];
+      if (i >= order.size())
+      {
+        p.x += jitter(rng);
+        p.y += jitter(rng);
+        p.z += jitter(rng);
+      }
+      object->push_back(p);
+      camera_of_point.push_back(cameraOf(source));
+    }
+  }
+  else
+  {
+    object->reserve(object_indices.size());
+    for (const int i : object_indices)
+    {
+      object->push_back(merged->points[static_cast<std::size_t>(i)]);
+      camera_of_point.push_back(cameraOf(static_cast<std::size_t>(i)));
+    }
+  }
+
+  const NormalResult normals = estimateNormals(object, prepared.view.sensor_origins.front(), params.normals);
+  if (!normals.ok || !normals.cloud)
+    return fail(prepared, ViewStage::Normals, "NormalsFailed", normals.reason);
+  CloudNormal::Ptr with_normals = normals.cloud;
+  if (prepared.view.sensor_origins.size() > 1)
+  {
+    // Normals are fitted on the fused cloud (better neighbourhoods where the views overlap)
+    // and face the first camera; re-orient each toward the camera that saw its point. The
+    // output keeps the input order minus the points without a normal, so walk both.
+    std::size_t source = 0;
+    for (auto& p : with_normals->points)
+    {
+      while (source < object->size() && object->points[source].getVector3fMap() != p.getVector3fMap())
+        ++source;
+      if (source == object->size())
+        break;  // cannot happen while estimateNormals keeps the order; leave the rest as fitted
+      const Eigen::Vector3f& origin = prepared.view.sensor_origins[camera_of_point[source]];
+      if (p.getNormalVector3fMap().dot(origin - p.getVector3fMap()) < 0.0f)
+        p.getNormalVector3fMap() *= -1.0f;
+      ++source;
+    }
+  }
+
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  prepared.object_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  prepared.object_max = -prepared.object_min;
+  for (const auto& p : with_normals->points)
+  {
+    sum += p.getVector3fMap().cast<double>();
+    prepared.object_min = prepared.object_min.cwiseMin(p.getVector3fMap());
+    prepared.object_max = prepared.object_max.cwiseMax(p.getVector3fMap());
+  }
+  prepared.object_centroid = (sum / static_cast<double>(with_normals->size())).cast<float>();
+
+  if (params.table_plane)
+  {
+    Eigen::Vector4f plane = *params.table_plane;
+    const float norm = plane.head<3>().norm();
+    if (!plane.allFinite() || !(norm > 1e-9f))
+      return fail(prepared, ViewStage::Segmentation, "InvalidInput", "table plane has no direction");
+    plane /= norm;
+    if (plane.head<3>().dot(prepared.object_centroid) + plane.w() < 0.0f)
+      plane = -plane;  // the planners expect the normal to point from the table to the object
+    prepared.view.table_plane = plane;
+    prepared.view.has_table_plane = true;
+  }
+
+  prepared.view.cloud = with_normals;
+  prepared.points = with_normals->size();
+  return prepared;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,352 @@
+// OMPL planning, time parameterisation and the grasp execution plan on the benchmark scenes
+// and on hand-made bad input.
+#include "fast_grasp/arm_motion_planner.h"
+#include "fast_grasp/grasp_execution.h"
+#include "fast_grasp/trajectory_timing.h"
+
+#include <gtest/gtest.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/util/Console.h>
+
+#include <cmath>
+#include <fstream>
+
+namespace
+{
+using namespace fast_grasp;
+constexpr double kPi = 3.14159265358979323846;
+// OMPL's per-solve INFO/DEBUG lines would drown the test output.
+const bool kQuietOmpl = (ompl::msg::setLogLevel(ompl::msg::LOG_WARN), true);
+
+std::string sourcePath(const std::string& relative) { return std::string(FAST_GRASP_SOURCE_DIR) + "/" + relative; }
+
+ArmKinematics ur5() { return ArmKinematics::fromUrdfFile(sourcePath("urdf/ur5_gripper_xtion.urdf")); }
+
+Eigen::VectorXd home()
+{
+  Eigen::VectorXd q(6);
+  q << kPi / 2, -kPi / 2, kPi / 2, -kPi / 2, -kPi / 2, 0.0;
+  return q;
+}
+
+/// Limits, monotonic time, rest at both ends, finite-difference consistency.
+void expectTrajectoryWithinLimits(const std::vector<TrajectoryPoint>& traj, const ArmKinematics& kin,
+                                  const TimingLimits& limits)
+{
+  ASSERT_GE(traj.size(), 2u);
+  EXPECT_LT(traj.front().velocities.norm(), 1e-9);
+  EXPECT_LT(traj.back().velocities.norm(), 1e-9);
+  for (std::size_t i = 0; i < traj.size(); ++i)
+  {
+    const TrajectoryPoint& p = traj[i];
+    EXPECT_TRUE(kin.withinLimits(p.positions, 1e-6)) << i;
+    EXPECT_TRUE((p.velocities.cwiseAbs().array() <= limits.velocity_rad_s.array() * (1 + 1e-6)).all()) << i;
+    EXPECT_TRUE((p.accelerations.cwiseAbs().array() <= limits.acceleration_rad_s2.array() * (1 + 1e-6)).all()) << i;
+    if (i == 0)
+      continue;
+    const double dt = p.time_from_start_s - traj[i - 1].time_from_start_s;
+    if ((p.positions - traj[i - 1].positions).norm() < 1e-12)
+      continue;  // a junction repeated point
+    ASSERT_GT(dt, 0.0) << i;
+    // The velocity change between samples needs at most the acceleration limit (10 % slack
+    // for the tangent averaging at gentle turns).
+    const Eigen::VectorXd fd_acc = (p.velocities - traj[i - 1].velocities) / dt;
+    EXPECT_TRUE((fd_acc.cwiseAbs().array() <= 1.1 * limits.acceleration_rad_s2.array() + 1e-6).all())
+        << i << ": " << fd_acc.transpose();
+  }
+}
+
+/// Re-checks every trajectory segment with joint steps of 0.005 rad (<= 5 mm for the UR5's
+/// < 1 m lever arms) against an unpadded model.
+void expectCollisionFreeDense(const std::vector<TrajectoryPoint>& traj, const RobotCollision& collision,
+                              const CollisionCheckOptions& options = CollisionCheckOptions())
+{
+  for (std::size_t i = 1; i < traj.size(); ++i)
+  {
+    const Eigen::VectorXd a = traj[i - 1].positions, b = traj[i].positions;
+    const int steps = std::max(1, static_cast<int>(std::ceil((b - a).cwiseAbs().maxCoeff() / 0.005)));
+    for (int k = 0; k <= steps; ++k)
+    {
+      std::string why;
+      ASSERT_FALSE(collision.inCollision(a + (b - a) * (static_cast<double>(k) / steps), options, &why))
+          << "segment " << i << " step " << k << ": " << why;
+    }
+  }
+}
+
+TimingLimits ur5Limits()
+{
+  TimingLimits limits;
+  limits.velocity_rad_s = Eigen::VectorXd::Constant(6, kPi);
+  limits.acceleration_rad_s2 = Eigen::VectorXd::Constant(6, 2.0);
+  return limits;
+}
+
+TEST(TrajectoryTiming, StraightMoveIsTheAnalyticTrapezoid)
+{
+  TimingLimits limits = ur5Limits();
+  // One joint moves 6 rad: accelerate at 2 rad/s^2 to pi rad/s (pi^2/4 = 2.47 rad each way),
+  // cruise, brake: T = L / v + v / a. The grid costs at most 0.1 % (the switch point falls
+  // between samples).
+  std::vector<Eigen::VectorXd> path = { Eigen::VectorXd::Zero(6), Eigen::VectorXd::Zero(6) };
+  path[1][0] = 6.0;
+  std::vector<TrajectoryPoint> traj;
+  ASSERT_TRUE(timeParameterize(path, limits, traj));
+  EXPECT_NEAR(traj.back().time_from_start_s, 6.0 / kPi + kPi / 2.0, 1e-3 * (6.0 / kPi + kPi / 2.0));
+  // Short move (never reaches pi rad/s): T = 2 sqrt(L / a).
+  path[1][0] = 0.5;
+  ASSERT_TRUE(timeParameterize(path, limits, traj));
+  EXPECT_NEAR(traj.back().time_from_start_s, 2.0 * std::sqrt(0.5 / 2.0), 1e-3);
+  // Two joints: the one with the longer move sets the pace, both arrive together.
+  path[1] << 1.0, 0.5, 0, 0, 0, 0;
+  ASSERT_TRUE(timeParameterize(path, limits, traj));
+  EXPECT_NEAR(traj.back().time_from_start_s, 2.0 * std::sqrt(1.0 / 2.0), 1e-3);
+  expectTrajectoryWithinLimits(traj, ur5(), limits);
+}
+
+TEST(TrajectoryTiming, CornersStopAndBadInputIsRejected)
+{
+  const TimingLimits limits = ur5Limits();
+  std::vector<Eigen::VectorXd> path(3, Eigen::VectorXd::Zero(6));
+  path[1][0] = 0.5;
+  path[2] << 0.5, 0.5, 0, 0, 0, 0;  // 90 degree corner
+  std::vector<TrajectoryPoint> traj;
+  ASSERT_TRUE(timeParameterize(path, limits, traj));
+  EXPECT_NEAR(traj.back().time_from_start_s, 2 * 2.0 * std::sqrt(0.5 / 2.0), 2e-3);
+  bool stopped_at_corner = false;
+  for (const TrajectoryPoint& p : traj)
+    if ((p.positions - path[1]).norm() < 1e-12)
+      stopped_at_corner = p.velocities.norm() < 1e-12;
+  EXPECT_TRUE(stopped_at_corner);
+  std::string why;
+  EXPECT_FALSE(timeParameterize({}, limits, traj, &why));
+  EXPECT_FALSE(timeParameterize({ Eigen::VectorXd::Zero(5) }, limits, traj, &why));
+  std::vector<Eigen::VectorXd> nan_path = { Eigen::VectorXd::Zero(6), Eigen::VectorXd::Constant(6, std::nan("")) };
+  EXPECT_FALSE(timeParameterize(nan_path, limits, traj, &why));
+  TimingLimits zero = limits;
+  zero.acceleration_rad_s2.setZero();
+  EXPECT_FALSE(timeParameterize(path, zero, traj, &why));
+}
+
+TEST(ArmMotionPlanner, EveryThesisPlannerAllocates)
+{
+  const RobotCollision collision(ur5());
+  const ArmMotionPlanner planner(collision);
+  const PlannerParameterTable table = loadPlannerParameters(sourcePath("config/planners.yaml"));
+  MotionPlanningParams params;
+  const auto setup = planner.makeSetup(home(), { home() }, params);
+  EXPECT_EQ(ArmMotionPlanner::plannerNames().size(), 23u);
+  for (const std::string& name : ArmMotionPlanner::plannerNames())
+  {
+    std::vector<std::string> unknown;
+    EXPECT_TRUE(ArmMotionPlanner::allocatePlanner(name, setup->getSpaceInformation(), table, &unknown)) << name;
+    EXPECT_TRUE(unknown.empty()) << name << ": " << (unknown.empty() ? "" : unknown.front());
+  }
+  params.planner = "NoSuchPlanner";
+  EXPECT_EQ(planner.plan(home(), { home() }, params).status, MotionPlanStatus::UnknownPlanner);
+}
+
+/// Plans a benchmark scene with RRTConnect and checks the timed result.
+void planScene(const std::string& scene_name)
+{
+  const ArmScene scene = loadArmScene(sourcePath("config/benchmarks/" + scene_name + ".yaml"));
+  RobotCollision padded(ur5(), 0.005), exact(ur5(), 0.0);
+  addSceneBoxes(scene, padded);
+  addSceneBoxes(scene, exact);
+  const ArmMotionPlanner planner(padded);
+  MotionPlanningParams params;
+  params.planner_params = loadPlannerParameters(sourcePath("config/planners.yaml"));
+  params.planning_time_s = 10.0;
+  params.keep_gripper_horizontal = scene.keep_gripper_horizontal;
+  params.horizontal_tolerance_rad = scene.horizontal_tolerance_rad;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  ASSERT_TRUE(resolveScene(scene, planner, params, start, goals, &why)) << why;
+  const MotionPlanResult plan = planner.plan(start, goals, params);
+  ASSERT_TRUE(plan.ok()) << plan.message;
+  EXPECT_LT((plan.path.front() - start).norm(), 1e-9);
+  bool at_goal = false;
+  for (const Eigen::VectorXd& g : goals)
+    at_goal = at_goal || (plan.path.back() - g).norm() < 1e-6;
+  EXPECT_TRUE(at_goal);
+  const TimingLimits limits = ur5Limits();
+  std::vector<TrajectoryPoint> traj;
+  ASSERT_TRUE(timeParameterize(plan.path, limits, traj, &why)) << why;
+  expectTrajectoryWithinLimits(traj, padded.kinematics(), limits);
+  expectCollisionFreeDense(traj, exact);
+  if (scene.keep_gripper_horizontal)
+  {
+    for (std::size_t i = 1; i < traj.size(); ++i)
+      for (int k = 0; k <= 10; ++k)
+      {
+        const Eigen::VectorXd q = traj[i - 1].positions + (traj[i].positions - traj[i - 1].positions) * (k / 10.0);
+        EXPECT_LE(planner.gripperTiltRad(q), scene.horizontal_tolerance_rad + 1e-9);
+      }
+  }
+}
+
+TEST(ArmMotionPlanner, LongMotionSceneIsSolved) { planScene("long_motion"); }
+TEST(ArmMotionPlanner, NarrowPassageSceneIsSolved) { planScene("narrow_passage"); }
+TEST(ArmMotionPlanner, HorizontalShelfPlaceKeepsTheGripperLevel) { planScene("shelf_place_horizontal"); }
+
+TEST(ArmMotionPlanner, OctomapBoxForcesADetour)
+{
+  // Straight joint-space line between two poses would sweep the hand through a box of points.
+  RobotCollision collision(ur5(), 0.005);
+  ASSERT_TRUE(collision.resetScene(0.02));
+  Eigen::VectorXd from(6), to(6);
+  from << -0.8, -1.2, 1.6, -1.97, -1.57, 0.0;
+  to << 0.8, -1.2, 1.6, -1.97, -1.57, 0.0;
+  Eigen::VectorXd mid = 0.5 * (from + to);
+  const Eigen::Vector3d hand = collision.kinematics().fk(mid).translation();
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  for (double x = -0.06; x <= 0.06; x += 0.01)
+    for (double y = -0.06; y <= 0.06; y += 0.01)
+      for (double z = -0.06; z <= 0.06; z += 0.01)
+        cloud.push_back(pcl::PointXYZ(hand.x() + x, hand.y() + y, hand.z() + z));
+  collision.addObstacleCloud(cloud, from);
+  ASSERT_TRUE(collision.inCollision(mid));
+  const ArmMotionPlanner planner(collision);
+  MotionPlanningParams params;
+  params.planning_time_s = 5.0;
+  const MotionPlanResult plan = planner.plan(from, { to }, params);
+  ASSERT_TRUE(plan.ok()) << plan.message;
+  EXPECT_GT(plan.path.size(), 2u);  // not the straight line
+  std::vector<TrajectoryPoint> traj;
+  ASSERT_TRUE(timeParameterize(plan.path, ur5Limits(), traj));
+  RobotCollision exact(ur5(), 0.0);
+  ASSERT_TRUE(exact.resetScene(0.02));
+  exact.addObstacleCloud(cloud, from);
+  expectCollisionFreeDense(traj, exact);
+}
+
+std::string reasons(const GraspPlanResult& r)
+{
+  std::string all = r.status;
+  for (const std::string& s : r.skipped_reasons)
+    all += "\n  " + s;
+  return all;
+}
+
+/// Scene with a table and a 4 x 4 x 10 cm target on it at (0.5, 0, 0.05..0.15).
+struct GraspScene
+{
+  RobotCollision collision{ ur5(), 0.005 };
+  GraspExecutionParams params;
+  std::vector<Grasp> grasps;
+  Grasp good;
+  GraspScene(bool with_table = true, bool with_target = true)
+  {
+    params = loadGraspExecutionParams(sourcePath("config/arm.yaml"), sourcePath("config/planners.yaml"));
+    collision.resetScene(params.octomap_resolution_m);
+    if (with_table)
+    {
+      Eigen::Isometry3d table = Eigen::Isometry3d::Identity();
+      table.translation() << 0.3, 0.0, -0.05;
+      collision.addBox("table", Eigen::Vector3d(1.6, 1.6, 0.1), table);
+    }
+    if (with_target)
+    {
+      pcl::PointCloud<pcl::PointXYZ> object;
+      for (double x = 0.48; x <= 0.52 + 1e-9; x += 0.005)
+        for (double y = -0.02; y <= 0.02 + 1e-9; y += 0.005)
+          for (double z = 0.05; z <= 0.15 + 1e-9; z += 0.005)
+            object.push_back(pcl::PointXYZ(x, y, z));
+      collision.setTargetCloud(object);
+    }
+    good.pose = makeGraspPose(Eigen::Vector3d(0.5, 0.0, 0.1), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0));
+  }
+};
+
+TEST(GraspExecution, PlansApproachAndLiftForAReachableGrasp)
+{
+  GraspScene s;
+  const GraspPlanResult r = planGraspMotion(s.collision, home(), { s.good }, s.params);
+  ASSERT_TRUE(r.success) << reasons(r);
+  EXPECT_EQ(r.grasp_index, 0);
+  EXPECT_EQ(r.joint_names.size(), 6u);
+  const ArmKinematics& kin = s.collision.kinematics();
+  // Pre-grasp: approach_distance_m back along the approach; grasp: the grasp pose; then lifted.
+  const Eigen::Isometry3d pre = kin.fk(r.points[r.pregrasp_point_index].positions);
+  const Eigen::Isometry3d at = kin.fk(r.points[r.grasp_point_index].positions);
+  const Eigen::Isometry3d lifted = kin.fk(r.points.back().positions);
+  EXPECT_LT((at.translation() - s.good.pose.translation()).norm(), 1e-3);
+  EXPECT_LT(Eigen::AngleAxisd(at.linear().transpose() * s.good.pose.linear()).angle(), 0.01);
+  EXPECT_LT((pre.translation() - (s.good.position() - s.params.approach_distance_m * s.good.approach())).norm(), 1e-3);
+  EXPECT_LT((lifted.translation() - (s.good.position() + Eigen::Vector3d(0, 0, s.params.lift_distance_m))).norm(), 1e-3);
+  TimingLimits limits = ur5Limits();
+  limits.acceleration_rad_s2 = s.params.acceleration_limit_rad_s2;
+  expectTrajectoryWithinLimits(r.points, kin, limits);
+  // Free motion to the pre-grasp never touches the target; the approach only with fingers.
+  std::vector<TrajectoryPoint> free(r.points.begin(), r.points.begin() + r.pregrasp_point_index + 1);
+  expectCollisionFreeDense(free, s.collision);
+  std::vector<TrajectoryPoint> approach(r.points.begin() + r.pregrasp_point_index,
+                                        r.points.begin() + r.grasp_point_index + 1);
+  CollisionCheckOptions fingers;
+  fingers.allow_finger_target_contact = true;
+  expectCollisionFreeDense(approach, s.collision, fingers);
+}
+
+TEST(GraspExecution, BadGraspsAreSkippedWithReasonsAndTheNextIsTried)
+{
+  GraspScene s;
+  Grasp nan_grasp;
+  nan_grasp.pose.translation().x() = std::nan("");
+  Grasp far = s.good;
+  far.pose.translation() << 2.0, 0.0, 0.1;  // beyond reach
+  Grasp into_table = s.good;
+  into_table.pose.translation().z() = -0.2;  // reachable, but the hand would be in the table
+  const GraspPlanResult r = planGraspMotion(s.collision, home(), { nan_grasp, far, into_table, s.good }, s.params);
+  ASSERT_TRUE(r.success) << reasons(r);
+  EXPECT_EQ(r.grasp_index, 3);
+  ASSERT_EQ(r.skipped_reasons.size(), 3u);
+  EXPECT_NE(r.skipped_reasons[0].find("NaN pose"), std::string::npos) << r.skipped_reasons[0];
+  EXPECT_NE(r.skipped_reasons[1].find("unreachable"), std::string::npos) << r.skipped_reasons[1];
+  EXPECT_NE(r.skipped_reasons[2].find("collision"), std::string::npos) << r.skipped_reasons[2];
+}
+
+TEST(GraspExecution, StartInCollisionFailsClearly)
+{
+  GraspScene s;
+  Eigen::VectorXd below_table(6);
+  below_table << 0, 0.5, 0, 0, 0, 0;
+  const GraspPlanResult r = planGraspMotion(s.collision, below_table, { s.good, s.good }, s.params);
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.status.find("start in collision"), std::string::npos) << r.status;
+  EXPECT_EQ(r.skipped_reasons.size(), 2u);
+  EXPECT_TRUE(r.points.empty());
+  const GraspPlanResult wrong = planGraspMotion(s.collision, Eigen::VectorXd::Zero(4), { s.good }, s.params);
+  EXPECT_FALSE(wrong.success);
+  EXPECT_NE(wrong.status.find("start state invalid"), std::string::npos) << wrong.status;
+  const GraspPlanResult none = planGraspMotion(s.collision, home(), {}, s.params);
+  EXPECT_FALSE(none.success);
+  EXPECT_EQ(none.grasp_index, -1);
+}
+
+TEST(GraspExecution, EmptySceneStillPlans)
+{
+  GraspScene s(false, false);
+  const GraspPlanResult r = planGraspMotion(s.collision, home(), { s.good }, s.params);
+  EXPECT_TRUE(r.success) << reasons(r);
+}
+
+TEST(GraspExecution, ConfigLoadsAndRejectsBadValues)
+{
+  const GraspExecutionParams p = loadGraspExecutionParams(sourcePath("config/arm.yaml"), sourcePath("config/planners.yaml"));
+  EXPECT_EQ(p.joint_upper_rad.size(), 6);
+  EXPECT_NEAR(p.joint_upper_rad[0], kPi, 1e-9);
+  EXPECT_NEAR(p.velocity_limit_rad_s[0], kPi, 1e-9);
+  EXPECT_EQ(p.motion.planner_params.size(), 23u);
+  EXPECT_THROW(loadGraspExecutionParams("/nonexistent/arm.yaml"), std::runtime_error);
+  const std::string bad = ::testing::TempDir() + "/bad_arm.yaml";
+  std::ofstream(bad) << "approach_distance_m: -1\n";
+  EXPECT_THROW(loadGraspExecutionParams(bad), std::runtime_error);
+  ArmKinematics kin = ur5();
+  GraspExecutionParams wrong = p;
+  wrong.joint_lower_rad = Eigen::VectorXd::Zero(3);
+  EXPECT_FALSE(applyLimits(wrong, kin).empty());
+  EXPECT_TRUE(applyLimits(p, kin).empty());
+}
+
+}  // namespace
