@@ -21,6 +21,17 @@ fi
 # catkin_make run_tests exits 0 even when tests fail: the verdict comes from catkin_test_results.
 catkin_make run_tests -DPYTHON_EXECUTABLE=/usr/bin/python3 -j1 "$@" 2>&1 | tee build/run_tests.log \
   | grep -E '^\[( +OK|  FAILED|  PASSED| RUN)|^\[ROSTEST\]|^SUMMARY|^ \* RESULT|^FAILURE|Failure|FAILED|^-- run_tests' || true
+# catkin_lint -W2 must stay clean: its verdict is one more test case in the results.
+mkdir -p build/test_results/fast_grasp
+lint_output="$(cd "${FAST_GRASP_WS}/src/fast_grasp" && catkin_lint -W2 --strict . 2>&1)"
+lint_rc=$?
+/usr/bin/python3 - "${lint_rc}" "${lint_output}" > build/test_results/fast_grasp/lint-catkin_lint.xml <<'PY'
+import sys
+from xml.sax.saxutils import escape
+ok = sys.argv[1] == "0"
+body = "" if ok else '<failure message="catkin_lint -W2 found problems">%s</failure>' % escape(sys.argv[2])
+print('<testsuite name="catkin_lint" tests="1" failures="%d"><testcase classname="lint" name="catkin_lint_W2">%s</testcase></testsuite>' % (0 if ok else 1, body))
+PY
 echo
 # catkin_test_results flags missing result files; the counts come from the test cases.
 catkin_test_results build/test_results > build/catkin_test_results.log 2>&1

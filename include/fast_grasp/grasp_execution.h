@@ -13,7 +13,7 @@
 
 namespace fast_grasp
 {
-/// Everything config/arm.yaml holds (see docs/arm_params.md).
+/// Everything config/arm.yaml holds (documented in README.md, Arm planning).
 struct GraspExecutionParams
 {
   std::string urdf_path;                 // empty: the caller supplies the kinematics
