@@ -30,6 +30,7 @@ class Report:
         self.order = []
         self.expect_grasps = rospy.get_param("~expect_grasps", True)
         self.expect_trajectory = rospy.get_param("~expect_trajectory", False)
+        self.pending_summaries = []  # arm summaries that came before their trajectory
 
     def frame(self, stamp):
         key = stamp.to_nsec()
@@ -64,12 +65,19 @@ class Report:
         with self.lock:
             # The trajectory carries the stamp of the grasps it was planned for; its summary
             # comes next on the arm planner's status.
-            self.frame(msg.header.stamp)["trajectory"] = (msg, None)
+            parts = self.frame(msg.header.stamp)
+            # Topics are not ordered with each other: the summary may already be here.
+            parts["trajectory"] = (msg, self.pending_summaries.pop(0) if self.pending_summaries else None)
+            self.flush()
 
     def on_arm_status(self, msg):
         with self.lock:
             # Statuses come in planning order: a success completes the oldest trajectory still
             # without its summary; a failure answers the oldest frame still waiting for a plan.
+            if msg.data.startswith("OK") and not any(
+                    "trajectory" in p and p["trajectory"][1] is None for p in self.frames.values()):
+                self.pending_summaries.append(msg.data)  # its trajectory has not arrived yet
+                return
             for key in self.order:
                 parts = self.frames[key]
                 if msg.data.startswith("OK"):
