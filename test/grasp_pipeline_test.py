@@ -57,6 +57,7 @@ class GraspPipelineTest(unittest.TestCase):
         # Known, open defects (NOTES.md): these checks still run; a failure is reported as a
         # skip naming the defect, a pass as a pass.
         cls.known_failures = names(rospy.get_param("~known_failures", "none"))
+        cls.known_hits = []  # (test method, message) of known failures that did occur
         cls.timeout_s = rospy.get_param("~timeout_s", 60.0)
         cls.lock = threading.Lock()
         cls.objects = {}  # stamp ns -> N x 3
@@ -181,6 +182,7 @@ class GraspPipelineTest(unittest.TestCase):
                 (known if name in self.known_failures else problems).append("%s: %s" % (name, error))
         self.assertFalse(problems, "\n".join(problems))
         if known:
+            self.known_hits.append(("test_planners", "\n".join(known)))
             self.skipTest("known failure (NOTES.md): " + "\n".join(known))
 
 
@@ -190,7 +192,22 @@ class GraspPipelineTest(unittest.TestCase):
         except AssertionError as error:
             if "trajectory" not in self.known_failures:
                 raise
+            self.known_hits.append(("test_trajectory", str(error)))
             self.skipTest("known failure (NOTES.md): %s" % error)
+
+    @classmethod
+    def tearDownClass(cls):
+        # rosunit writes skipped tests as passed: list the known failures beside the result
+        # file so the project's summary counts them as skipped (scripts/count_test_results.py).
+        out = [a.split("xml:", 1)[1] for a in sys.argv if a.startswith("--gtest_output=xml:")]
+        if not out or not cls.known_hits:
+            return
+        from xml.sax.saxutils import quoteattr
+        cases = "".join('<testcase classname="__main__.GraspPipelineTest" name="%s"><skipped message=%s/></testcase>'
+                        % (name, quoteattr(message[:2000])) for name, message in cls.known_hits)
+        with open(out[0][:-len(".xml")] + ".known.xml", "w") as f:
+            f.write('<testsuite name="known failures" tests="%d" skipped="%d">%s</testsuite>'
+                    % (len(cls.known_hits), len(cls.known_hits), cases))
 
     def check_trajectory_to_grasp(self):
         """Bag -> grasp -> UR5 trajectory: reaches the grasp via the pre-grasp, within the
