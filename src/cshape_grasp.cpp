@@ -247,7 +247,7 @@ struct SearchContext
   std::size_t configurations = 0;
   std::size_t zone_found = 0;  // configurations that fit (collision-free, within the opening)
   std::size_t fine_checks = 0;  // coarse survivors re-checked at full resolution
-  std::vector<Grasp> candidates;
+  std::vector<GraspCandidate> candidates;
 
   // Scratch buffers reused for every normal.
   std::vector<LocalPoint> coarse_local;
@@ -260,7 +260,7 @@ struct SearchContext
 struct Evaluation
 {
   bool passed = false;
-  Grasp grasp;
+  GraspCandidate grasp;
 };
 
 /// Collision of the C-shape at centre depth `centre_s` with the slab points.
@@ -514,7 +514,7 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
   return placement;
 }
 
-void record(SearchContext& ctx, const Grasp& grasp)
+void record(SearchContext& ctx, const GraspCandidate& grasp)
 {
   if (ctx.candidates.size() < ctx.params.max_recorded_candidates)
     ctx.candidates.push_back(grasp);
@@ -735,7 +735,7 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
       ++ctx.rejected.table;
       continue;
     }
-    Grasp grasp;
+    GraspCandidate grasp;
     grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
     grasp.width_m = width_seen;
     grasp.force_balance_rad = sigma;
@@ -987,7 +987,7 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
   // Random normal order (seeded), stop at max_grasps or the time budget.
   std::mt19937 rng(params_.seed);
   std::shuffle(normal_indices.begin(), normal_indices.end(), rng);
-  std::vector<Grasp> grasps;
+  std::vector<GraspCandidate> grasps;
   std::size_t normals_tried = 0;
   bool out_of_time = false;
   for (int index : normal_indices)
@@ -1043,7 +1043,7 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
 
   // The points enveloped by the best C-shape, for drawing. GraspResult::hull stays empty:
   // Eq. 6.9 is evaluated without a hull (see place()).
-  const Grasp& best = result.grasps.front();
+  const GraspCandidate& best = result.grasps.front();
   const Eigen::Isometry3d to_grasp = best.pose.inverse();
   const CShapeGeometry& c = ctx.geometry;
   for (const PointXYZ& q : ctx.seen->points)

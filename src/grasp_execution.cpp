@@ -183,7 +183,7 @@ std::vector<Eigen::VectorXd> planCartesianLine(const RobotCollision& collision, 
 }
 
 GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::VectorXd& start,
-                                const std::vector<Grasp>& grasps, const GraspExecutionParams& params)
+                                const std::vector<GraspCandidate>& grasps, const GraspExecutionParams& params)
 {
   const Stopwatch clock;
   GraspPlanResult result;
@@ -238,7 +238,7 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
       result.skipped_reasons.push_back(tag + "not tried (time budget spent)");
       continue;
     }
-    const Grasp& grasp = grasps[i];
+    const GraspCandidate& grasp = grasps[i];
     if (!grasp.pose.matrix().allFinite())
     {
       result.skipped_reasons.push_back(tag + "NaN pose");

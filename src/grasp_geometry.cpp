@@ -94,19 +94,7 @@ Eigen::Vector2d fitLineDirection(const std::vector<Eigen::Vector2d>& points)
   return solver.eigenvectors().col(1);
 }
 
-template <typename PointT>
-std::size_t countFinite(const pcl::PointCloud<PointT>& cloud)
-{
-  std::size_t n = 0;
-  for (const auto& p : cloud.points)
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-      ++n;
-  return n;
-}
-
 template PrincipalFrame computePrincipalFrame(const pcl::PointCloud<pcl::PointXYZ>&, const std::vector<int>&);
 template PrincipalFrame computePrincipalFrame(const pcl::PointCloud<pcl::PointNormal>&, const std::vector<int>&);
-template std::size_t countFinite(const pcl::PointCloud<pcl::PointXYZ>&);
-template std::size_t countFinite(const pcl::PointCloud<pcl::PointNormal>&);
 
 }  // namespace fast_grasp

@@ -413,9 +413,9 @@ void evaluateView(const std::vector<Eigen::Vector3f>& base_points, const ObjectF
   }
 }
 
-Grasp toGrasp(const Candidate& candidate, const ObjectFrame& frame)
+GraspCandidate toGrasp(const Candidate& candidate, const ObjectFrame& frame)
 {
-  Grasp grasp;
+  GraspCandidate grasp;
   grasp.algorithm = "principal_axis";
   grasp.width_m = candidate.right_x - candidate.left_x;
   grasp.force_balance_rad = candidate.force_balance_rad;
@@ -593,7 +593,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     double best_xoy_penalty = std::numeric_limits<double>::infinity();
     for (const Candidate& candidate : evaluation.candidates)
     {
-      Grasp grasp = toGrasp(candidate, frame);
+      GraspCandidate grasp = toGrasp(candidate, frame);
       const double penalty = rankPenalty(candidate.force_balance_rad / std::max(p.force_balance_max_rad, 1e-6),
                                          candidate.xoz_offset_m / p.xoz_max_offset_m, candidate.y,
                                          halfLength(evaluation));
@@ -752,7 +752,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     if (!best)
       continue;
     // Ranking across viewpoints by XOZ offset (Ch3.5.5 B, Eqs. 3.9-3.10).
-    Grasp grasp = toGrasp(*best, frame);
+    GraspCandidate grasp = toGrasp(*best, frame);
     const double final_penalty =
         rankPenalty(best->xoz_offset_m / p.xoz_max_offset_m,
                     best->force_balance_rad / std::max(p.force_balance_max_rad, 1e-6), best->y, halfLength(evaluation));

@@ -234,8 +234,8 @@ struct GraspScene
 {
   RobotCollision collision{ ur5(), 0.005 };
   GraspExecutionParams params;
-  std::vector<Grasp> grasps;
-  Grasp good;
+  std::vector<GraspCandidate> grasps;
+  GraspCandidate good;
   GraspScene(bool with_table = true, bool with_target = true)
   {
     params = loadGraspExecutionParams(sourcePath("config/arm.yaml"), sourcePath("config/planners.yaml"));
@@ -291,11 +291,11 @@ TEST(GraspExecution, PlansApproachAndLiftForAReachableGrasp)
 TEST(GraspExecution, BadGraspsAreSkippedWithReasonsAndTheNextIsTried)
 {
   GraspScene s;
-  Grasp nan_grasp;
+  GraspCandidate nan_grasp;
   nan_grasp.pose.translation().x() = std::nan("");
-  Grasp far = s.good;
+  GraspCandidate far = s.good;
   far.pose.translation() << 2.0, 0.0, 0.1;  // beyond reach
-  Grasp into_table = s.good;
+  GraspCandidate into_table = s.good;
   into_table.pose.translation().z() = -0.2;  // reachable, but the hand would be in the table
   const GraspPlanResult r = planGraspMotion(s.collision, home(), { nan_grasp, far, into_table, s.good }, s.params);
   ASSERT_TRUE(r.success) << reasons(r);

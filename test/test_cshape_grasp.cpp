@@ -31,7 +31,7 @@ CShapeParams exhaustiveParams()
   return params;
 }
 
-CShapePose cshapePoseOf(const Grasp& grasp)
+CShapePose cshapePoseOf(const GraspCandidate& grasp)
 {
   CShapePose pose;
   pose.centre = grasp.position().cast<float>();
@@ -69,7 +69,7 @@ CloudXYZ wholeSurface(const Shape& shape)
 /// Seen points between the fingers of `grasp`, counted independently of the planner: the
 /// closing region is |across| <= w/2, |closing| <= r1, from the inner circle's back to the
 /// fingertips (sqrt(r2^2 - r1^2) in front of the centre).
-std::size_t pointsBetweenFingers(const Grasp& grasp, const GripperModel& gripper, const CloudNormal& cloud)
+std::size_t pointsBetweenFingers(const GraspCandidate& grasp, const GripperModel& gripper, const CloudNormal& cloud)
 {
   const Eigen::Isometry3d to_grasp = grasp.pose.inverse();
   const double r1 = gripper.cshape_r1_m;
@@ -94,7 +94,7 @@ void expectValidGrasps(const GraspResult& result, const ObjectView& view, const 
   const Eigen::Vector3d sensor = view.sensor_origins.front().cast<double>();
   for (std::size_t i = 0; i < result.grasps.size(); ++i)
   {
-    const Grasp& g = result.grasps[i];
+    const GraspCandidate& g = result.grasps[i];
     SCOPED_TRACE("grasp " + std::to_string(i));
     EXPECT_EQ(g.algorithm, "cshape");
     EXPECT_GT(pointsBetweenFingers(g, gripper, *view.cloud), 0u);
@@ -200,7 +200,7 @@ TEST(CShapeGrasp, BoxClosesOnOneSideWithBalancedForces)
   const ObjectView view = makeObjectView(cloud, viewpoint);
   const GraspResult result = CShapeGraspPlanner(exhaustiveParams()).plan(view, gripper);
   expectValidGrasps(result, view, gripper);
-  const Grasp& best = result.grasps.front();
+  const GraspCandidate& best = result.grasps.front();
   EXPECT_LT(best.force_balance_rad, 0.1) << result.message;
   // Parallel sides: the closing direction is along one box axis and the width is that edge.
   const Eigen::Vector3d closing = best.binormal().cwiseAbs();
@@ -225,7 +225,7 @@ TEST(CShapeGrasp, CylinderOnATableIsGraspedAcrossItsDiameterThroughTheAxis)
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
   const GraspResult result = CShapeGraspPlanner(exhaustiveParams()).plan(view, gripper);
   expectValidGrasps(result, view, gripper);
-  const Grasp& best = result.grasps.front();
+  const GraspCandidate& best = result.grasps.front();
   // Closing horizontal, across the axis: the closing line passes within a few mm of the
   // vertical axis through the origin (distance of two lines: |(p) . (d x z)| / |d x z|).
   EXPECT_LT(std::abs(best.binormal().z()), 0.1);
@@ -322,7 +322,7 @@ TEST(CShapeGrasp, UnseenPartRejectsGraspsThatWouldHitTheHiddenBack)
   const ObjectView view = makeObjectView(renderView(box, ViewParams{ viewpoint }), viewpoint);
   auto truthCollisions = [&](const GraspResult& result) {
     std::size_t colliding = 0;
-    for (const Grasp& g : result.grasps)
+    for (const GraspCandidate& g : result.grasps)
       if (countInsideCShape(cshapePoseOf(g), gripper, truth) > 0)
         ++colliding;
     return colliding;
@@ -353,7 +353,7 @@ namespace
 /// (palm_thickness deep behind the back of the C at -r2, +-r2 along the closing direction,
 /// +-max(finger_width, w / 2) across). Every sample lies in the body, so the result is never
 /// below the true lowest point.
-double lowestBodyHeight(const Grasp& grasp, const GripperModel& gripper)
+double lowestBodyHeight(const GraspCandidate& grasp, const GripperModel& gripper)
 {
   const CShapePose pose = cshapePoseOf(grasp);
   const Eigen::Vector3d approach = grasp.approach();
@@ -409,7 +409,7 @@ TEST(CShapeGrasp, GripperBodyStaysAboveTheTable)
   const GraspResult blind = CShapeGraspPlanner(unchecked).plan(view, gripper);
   ASSERT_TRUE(blind.ok()) << blind.message;
   std::size_t too_low = 0;
-  for (const Grasp& g : blind.grasps)
+  for (const GraspCandidate& g : blind.grasps)
     if (lowestBodyHeight(g, gripper) < params.table_clearance_m)
       ++too_low;
   EXPECT_GT(too_low, 0u) << "the scene no longer exercises the table check";
@@ -418,7 +418,7 @@ TEST(CShapeGrasp, GripperBodyStaysAboveTheTable)
   view.table_plane = Eigen::Vector4f(0, 0, 2, 0);
   const GraspResult scaled = CShapeGraspPlanner(params).plan(view, gripper);
   ASSERT_TRUE(scaled.ok()) << scaled.message;
-  for (const Grasp& g : scaled.grasps)
+  for (const GraspCandidate& g : scaled.grasps)
     EXPECT_GE(lowestBodyHeight(g, gripper), params.table_clearance_m);
 }
 
@@ -445,7 +445,7 @@ TEST(CShapeGrasp, FromAboveWeightPrefersApproachesAlongGravity)
   // sideways ones); the weight picks the most downward or the most sideways of them.
   const double above_best = above.grasps.front().approach().dot(down);
   const double side_best = side.grasps.front().approach().dot(down);
-  for (const Grasp& g : side.grasps)
+  for (const GraspCandidate& g : side.grasps)
   {
     EXPECT_GE(above_best, g.approach().dot(down) - 1e-6);
     EXPECT_LE(side_best, g.approach().dot(down) + 1e-6);

@@ -239,7 +239,7 @@ TEST(PrincipalAxisGrasp, BoxClosesOnItsSideWithParallelContacts)
   const auto cloud = synthetic::renderView(box, camera);
   const GraspResult result = PrincipalAxisGraspPlanner().plan(viewOf(cloud, camera.viewpoint), robotiq());
   ASSERT_TRUE(result.ok()) << result.message;
-  const Grasp& best = result.grasps.front();
+  const GraspCandidate& best = result.grasps.front();
   EXPECT_EQ(best.algorithm, "principal_axis");
   EXPECT_LT(best.force_balance_rad, 0.02);
   EXPECT_NEAR(best.width_m, 0.07, 0.003);  // closes on the 0.07 side (along y)
@@ -266,7 +266,7 @@ TEST(PrincipalAxisGrasp, CylinderClosesAcrossTheDiameterThroughTheAxis)
   const auto cloud = synthetic::renderView(cylinder, camera);
   const GraspResult result = PrincipalAxisGraspPlanner().plan(viewOf(cloud, camera.viewpoint), robotiq());
   ASSERT_TRUE(result.ok()) << result.message;
-  const Grasp& best = result.grasps.front();
+  const GraspCandidate& best = result.grasps.front();
   // The outermost ray of a row misses the silhouette by up to one ray spacing measured along
   // the camera's (tilted) grid: up to sqrt(2) * spacing per side, never more than the diameter.
   const double silhouette_gap = std::sqrt(2.0) * spacing;
@@ -472,7 +472,7 @@ TEST(PrincipalAxisGraspTwoCameras, FusedPlankFoundFromTheNarrowSideOnTheSeenPart
   // and its width is the fused L-section's extent across the sight line,
   // 0.12 cos(theta) + 0.04 sin(theta), theta measured from camera 0 toward camera 1.
   const Eigen::Vector3d centroid = centroidOf(*fused.cloud);
-  for (const Grasp& grasp : result.candidates)
+  for (const GraspCandidate& grasp : result.candidates)
   {
     const Eigen::Vector3d toward_sensor = -grasp.approach();
     const double theta = std::atan2(toward_sensor.y(), toward_sensor.x());
@@ -481,7 +481,7 @@ TEST(PrincipalAxisGraspTwoCameras, FusedPlankFoundFromTheNarrowSideOnTheSeenPart
     EXPECT_LE(grasp.width_m, robotiq().max_opening_m);
   }
   // The final grasp is the viewpoint with the smallest XOZ offset (Eq. 3.10).
-  for (const Grasp& grasp : result.candidates)
+  for (const GraspCandidate& grasp : result.candidates)
     EXPECT_LE(result.grasps.front().xoz_offset_m, grasp.xoz_offset_m + 1e-12);
 }
 
@@ -504,7 +504,7 @@ TEST(PrincipalAxisGraspTwoCameras, FusedCylinderOneGraspPerVirtualViewpoint)
   EXPECT_EQ(result.candidates.size(), 10u);
   const Eigen::Vector3d centroid = centroidOf(*fused.cloud);
   const double silhouette_gap = std::sqrt(2.0) * hand_camera.spacing_m;  // see the single-view test
-  for (const Grasp& grasp : result.candidates)
+  for (const GraspCandidate& grasp : result.candidates)
   {
     EXPECT_NEAR(grasp.width_m, 0.06 - silhouette_gap, silhouette_gap + 1e-4);
     EXPECT_TRUE(withinSeenSector(-grasp.approach(), centroid, hand, head, 1e-3));
@@ -518,7 +518,7 @@ TEST(PrincipalAxisGraspTwoCameras, FusedCylinderOneGraspPerVirtualViewpoint)
   const GraspResult hand_only = PrincipalAxisGraspPlanner(params).plan(fused, robotiq());
   ASSERT_FALSE(hand_only.candidates.empty()) << hand_only.message;
   const Eigen::Vector3d hand_sight = horizontal(centroid - hand).normalized();
-  for (const Grasp& grasp : hand_only.candidates)
+  for (const GraspCandidate& grasp : hand_only.candidates)
     EXPECT_GT(grasp.approach().dot(hand_sight), 0.999);
 }
 

@@ -38,8 +38,4 @@ LineFit fitLine(const std::vector<Eigen::Vector2d>& points);
 /// Total least-squares (orthogonal) line direction through 2-D points, robust for any slope.
 Eigen::Vector2d fitLineDirection(const std::vector<Eigen::Vector2d>& points);
 
-/// Number of finite points; true when at least `min_count` exist.
-template <typename PointT>
-std::size_t countFinite(const pcl::PointCloud<PointT>& cloud);
-
 }  // namespace fast_grasp

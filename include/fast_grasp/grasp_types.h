@@ -106,12 +106,6 @@ struct GraspResult
   }
 };
 
-// Transitional alias for code written before the rename; the ROS layer defines
-// FAST_GRASP_NO_GRASP_ALIAS because there fast_grasp::Grasp is the message.
-#ifndef FAST_GRASP_NO_GRASP_ALIAS
-using Grasp = GraspCandidate;
-#endif
-
 /// Every grasp algorithm implements this one interface. Algorithm parameters are given to
 /// the planner's constructor, so one planner object serves many views; plan() is const and
 /// thread-safe.
