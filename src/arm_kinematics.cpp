@@ -48,6 +48,32 @@ Eigen::Vector3d rotationError(const Eigen::Matrix3d& target, const Eigen::Matrix
 }
 }  // namespace
 
+/// Rigid transform stored as a contiguous 3 x 3 rotation and a translation. Collision
+/// checking runs the chain walk for every state a planner checks; Eigen unrolls and inlines
+/// products of these, not those of an Isometry3d's 3 x 3 blocks of a 4 x 4 matrix.
+struct Rigid
+{
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Rigid() = default;
+  explicit Rigid(const Eigen::Isometry3d& t) : r(t.linear()), p(t.translation()) {}
+  Eigen::Isometry3d isometry() const
+  {
+    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    t.linear() = r;
+    t.translation() = p;
+    return t;
+  }
+  Rigid operator*(const Rigid& b) const
+  {
+    Rigid out;
+    out.r.noalias() = r * b.r;
+    out.p.noalias() = r * b.p;
+    out.p += p;
+    return out;
+  }
+};
+
 /// One chain segment, KDL-free: pose(q) = pre * joint(q) * post, the joint being a rotation
 /// about (or translation along) `axis` through the origin of the `pre` frame.
 struct ArmKinematics::Model
@@ -63,9 +89,14 @@ struct ArmKinematics::Model
     std::string link;
     JointType type = JointType::Fixed;
     int joint_index = -1;  // index into q for moving joints
-    Eigen::Isometry3d pre = Eigen::Isometry3d::Identity();
+    Rigid pre;
     Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // unit, in the pre frame
-    Eigen::Isometry3d post = Eigen::Isometry3d::Identity();
+    /// 0 / 1 / 2 when axis is +-x / +-y / +-z (the UR5's, and most URDFs'), else -1: a
+    /// rotation about a frame axis mixes two columns instead of building a matrix.
+    int principal_axis = -1;
+    double axis_sign = 1.0;
+    Rigid post;
+    Rigid pre_post;  // pre * post: the whole segment when the joint is fixed
   };
   std::string urdf_xml;
   std::string base_link;
@@ -76,24 +107,47 @@ struct ArmKinematics::Model
   std::vector<int> moving_before;        // per link_names entry
   std::vector<bool> continuous;          // per joint
 
-  /// Walks the chain; calls visit(segment_index, pose_after_segment, pose_before_joint).
+  /// Walks the chain; calls visit(segment_index, pose_after_segment, pose_before_joint)
+  /// (for a fixed segment both are the pose after it).
   template <typename Visit>
-  Eigen::Isometry3d walk(const Eigen::VectorXd& q, Visit&& visit) const
+  Rigid walk(const Eigen::VectorXd& q, Visit&& visit) const
   {
-    Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+    Rigid t, before;
     for (std::size_t i = 0; i < segments.size(); ++i)
     {
       const Segment& s = segments[i];
-      const Eigen::Isometry3d before = t * s.pre;
-      Eigen::Isometry3d after = before;
+      if (s.type == JointType::Fixed)
+      {
+        t = t * s.pre_post;
+        visit(i, t, t);
+        continue;
+      }
+      before = t * s.pre;
+      Rigid after = before;
       if (s.type == JointType::Revolute)
-        after.linear() = before.linear() * Eigen::AngleAxisd(q[s.joint_index], s.axis).toRotationMatrix();
-      else if (s.type == JointType::Prismatic)
-        after.translation() += before.linear() * (s.axis * q[s.joint_index]);
+        rotate(after.r, s, q[s.joint_index]);
+      else
+        after.p.noalias() += before.r * (s.axis * q[s.joint_index]);
       t = after * s.post;
       visit(i, t, before);
     }
     return t;
+  }
+
+  /// r *= rotation of `angle` about the segment's axis.
+  static void rotate(Eigen::Matrix3d& r, const Segment& s, double angle)
+  {
+    if (s.principal_axis < 0)
+    {
+      r = r * Eigen::AngleAxisd(angle, s.axis).toRotationMatrix();
+      return;
+    }
+    // Rotation about frame axis k: columns k+1 and k+2 turn in their plane.
+    const double c = std::cos(angle), sn = s.axis_sign * std::sin(angle);
+    const int u = (s.principal_axis + 1) % 3, v = (s.principal_axis + 2) % 3;
+    const Eigen::Vector3d cu = r.col(u), cv = r.col(v);
+    r.col(u) = c * cu + sn * cv;
+    r.col(v) = c * cv - sn * cu;
   }
 };
 
@@ -139,14 +193,21 @@ ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const s
     // offset to the joint origin; recover f_tip so the walk needs no KDL at run time.
     const KDL::Frame joint_zero = joint.pose(0.0);
     const KDL::Frame f_tip = joint_zero.Inverse() * seg.getFrameToTip();
-    s.pre = toEigen(joint_zero);
-    s.post = toEigen(f_tip);
+    s.pre = Rigid(toEigen(joint_zero));
+    s.post = Rigid(toEigen(f_tip));
+    s.pre_post = s.pre * s.post;
     if (joint.getType() != KDL::Joint::None)
     {
       // KDL's axis is in the segment root frame; express it in the joint's (pre) frame.
       const KDL::Vector axis_root = joint.JointAxis();
       const Eigen::Vector3d axis(axis_root.x(), axis_root.y(), axis_root.z());
-      s.axis = (s.pre.linear().transpose() * axis).normalized();
+      s.axis = (s.pre.r.transpose() * axis).normalized();
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(std::abs(s.axis[k]) - 1.0) < 1e-12)
+        {
+          s.principal_axis = k;
+          s.axis_sign = s.axis[k] > 0.0 ? 1.0 : -1.0;
+        }
       const bool prismatic = joint.getType() == KDL::Joint::TransAxis || joint.getType() == KDL::Joint::TransX ||
                              joint.getType() == KDL::Joint::TransY || joint.getType() == KDL::Joint::TransZ;
       s.type = prismatic ? Model::JointType::Prismatic : Model::JointType::Revolute;
@@ -233,7 +294,7 @@ Eigen::Isometry3d ArmKinematics::fk(const Eigen::VectorXd& q) const
     nan.matrix().setConstant(std::numeric_limits<double>::quiet_NaN());
     return nan;
   }
-  return model_->walk(q, [](std::size_t, const Eigen::Isometry3d&, const Eigen::Isometry3d&) {});
+  return model_->walk(q, [](std::size_t, const Rigid&, const Rigid&) {}).isometry();
 }
 
 void ArmKinematics::linkPoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
@@ -242,7 +303,11 @@ void ArmKinematics::linkPoses(const Eigen::VectorXd& q, std::vector<Eigen::Isome
   poses[0] = Eigen::Isometry3d::Identity();
   if (q.size() != static_cast<Eigen::Index>(dof()))
     return;
-  model_->walk(q, [&poses](std::size_t i, const Eigen::Isometry3d& t, const Eigen::Isometry3d&) { poses[i + 1] = t; });
+  model_->walk(q, [&poses](std::size_t i, const Rigid& t, const Rigid&) {
+    poses[i + 1].linear() = t.r;
+    poses[i + 1].translation() = t.p;
+    poses[i + 1].makeAffine();
+  });
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> ArmKinematics::jacobian(const Eigen::VectorXd& q) const
@@ -254,13 +319,13 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> ArmKinematics::jacobian(const Eigen::Ve
   // Joint axes and origins in the base frame, then columns relative to the tip position.
   std::vector<Eigen::Vector3d> axes(dof()), origins(dof());
   std::vector<bool> prismatic(dof(), false);
-  const Eigen::Isometry3d tip =
-      model_->walk(q, [&](std::size_t i, const Eigen::Isometry3d&, const Eigen::Isometry3d& before) {
+  const Rigid tip =
+      model_->walk(q, [&](std::size_t i, const Rigid&, const Rigid& before) {
         const Model::Segment& s = model_->segments[i];
         if (s.type == Model::JointType::Fixed)
           return;
-        axes[s.joint_index] = before.linear() * s.axis;
-        origins[s.joint_index] = before.translation();
+        axes[s.joint_index] = before.r * s.axis;
+        origins[s.joint_index] = before.p;
         prismatic[s.joint_index] = s.type == Model::JointType::Prismatic;
       });
   for (std::size_t j = 0; j < dof(); ++j)
@@ -269,7 +334,7 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> ArmKinematics::jacobian(const Eigen::Ve
       jac.col(j).head<3>() = axes[j];
     else
     {
-      jac.col(j).head<3>() = axes[j].cross(tip.translation() - origins[j]);
+      jac.col(j).head<3>() = axes[j].cross(tip.p - origins[j]);
       jac.col(j).tail<3>() = axes[j];
     }
   }

@@ -56,7 +56,8 @@ void fromEigen(const Eigen::VectorXd& q, ob::State* state)
     values[j] = q[j];
 }
 
-/// Stateless (hence thread-safe) validity: everything is recomputed from the state.
+/// Stateless (hence thread-safe) validity: everything is recomputed from the state (the only
+/// scratch is per thread).
 class ArmValidityChecker : public ob::StateValidityChecker
 {
 public:
@@ -66,7 +67,13 @@ public:
   }
   bool isValid(const ob::State* state) const override
   {
-    return planner_.isValid(toEigen(state, planner_.collision().kinematics().dof()), params_);
+    // Per-thread joint vector: this runs for every state a planner checks, and a heap
+    // allocation per call showed up in the profile.
+    thread_local Eigen::VectorXd q;
+    const std::size_t dof = planner_.collision().kinematics().dof();
+    q = Eigen::Map<const Eigen::VectorXd>(state->as<ob::RealVectorStateSpace::StateType>()->values,
+                                          static_cast<Eigen::Index>(dof));
+    return planner_.isValid(q, params_);
   }
 
 private:

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -14,14 +15,24 @@ namespace fast_grasp
 {
 using CollisionGeometryPtr = std::shared_ptr<fcl::CollisionGeometryd>;
 
+namespace
+{
+/// A padded robot shape or a scene box as the culling tests see it. FCL's primitives are
+/// centred on their frame's origin: box half extents; cylinder (radius, radius, half length
+/// along z); sphere (radius, radius, radius).
+struct ConvexShape
+{
+  RobotShape::Type type = RobotShape::Type::Box;
+  Eigen::Vector3d half = Eigen::Vector3d::Zero();
+  double bounding_radius = 0.0;  // about the origin
+};
+}  // namespace
+
 struct RobotCollision::Geometry
 {
   std::vector<CollisionGeometryPtr> shapes;  // padded FCL shapes, one per RobotShape
-  std::vector<double> bounding_radius;       // of each padded shape about its origin
-  // Capsule enclosing each padded shape (segment in the shape frame + radius): a cheap,
-  // conservative pre-test that spares most of FCL's GJK calls.
-  std::vector<Eigen::Vector3d> capsule_a, capsule_b;
-  std::vector<double> capsule_radius;
+  std::vector<ConvexShape> convex;           // the same padded shapes, for the culling tests
+  std::vector<Eigen::Matrix3d> offset_rotation;  // RobotShape::offset's rotation, contiguous
 };
 
 struct RobotCollision::Scene
@@ -31,14 +42,21 @@ struct RobotCollision::Scene
     std::string name;
     CollisionGeometryPtr geometry;
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    double bounding_radius = 0.0;
-    Eigen::Vector3d half_size = Eigen::Vector3d::Zero();
+    ConvexShape convex;
+    Eigen::Vector3d aabb_half_m = Eigen::Vector3d::Zero();  // world axis-aligned half extents
+  };
+  /// World axis-aligned bounds of an OctoMap's occupied leaves (grown by one voxel).
+  struct Bounds
+  {
+    Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
   };
   double resolution_m = 0.01;
   std::shared_ptr<const octomap::OcTree> obstacles;  // null when empty
   std::shared_ptr<const fcl::OcTreed> obstacles_fcl;
+  Bounds obstacles_bounds;
   std::shared_ptr<const octomap::OcTree> target;
   std::shared_ptr<const fcl::OcTreed> target_fcl;
+  Bounds target_bounds;
   std::vector<Box> boxes;
 };
 
@@ -52,69 +70,135 @@ Eigen::Isometry3d toEigen(const urdf::Pose& p)
   return t;
 }
 
-/// Pads a shape and returns the FCL geometry plus its bounding radius about its origin.
-std::pair<CollisionGeometryPtr, double> makeGeometry(const RobotShape& s, double padding_m)
+/// Pads a shape: its FCL geometry and the same shape for the culling tests.
+std::pair<CollisionGeometryPtr, ConvexShape> makeGeometry(const RobotShape& s, double padding_m)
 {
+  ConvexShape convex;
+  convex.type = s.type;
   switch (s.type)
   {
     case RobotShape::Type::Box:
     {
       const Eigen::Vector3d size = s.size_m + Eigen::Vector3d::Constant(2.0 * padding_m);
-      return { std::make_shared<fcl::Boxd>(size.x(), size.y(), size.z()), 0.5 * size.norm() };
+      convex.half = 0.5 * size;
+      convex.bounding_radius = convex.half.norm();
+      return { std::make_shared<fcl::Boxd>(size.x(), size.y(), size.z()), convex };
     }
     case RobotShape::Type::Cylinder:
     {
       const double r = s.size_m.x() + padding_m, l = s.size_m.z() + 2.0 * padding_m;
-      return { std::make_shared<fcl::Cylinderd>(r, l), std::hypot(r, 0.5 * l) };
+      convex.half << r, r, 0.5 * l;
+      convex.bounding_radius = std::hypot(r, 0.5 * l);
+      return { std::make_shared<fcl::Cylinderd>(r, l), convex };
     }
     case RobotShape::Type::Sphere:
     default:
-      return { std::make_shared<fcl::Sphered>(s.size_m.x() + padding_m), s.size_m.x() + padding_m };
+      convex.type = RobotShape::Type::Sphere;
+      convex.half.setConstant(s.size_m.x() + padding_m);
+      convex.bounding_radius = s.size_m.x() + padding_m;
+      return { std::make_shared<fcl::Sphered>(s.size_m.x() + padding_m), convex };
   }
 }
 
-/// Enclosing capsule of a padded shape, in the shape frame.
-void enclosingCapsule(const RobotShape& s, double padding_m, Eigen::Vector3d& a, Eigen::Vector3d& b, double& radius)
+// --- Conservative culling before FCL's narrow phase ------------------------------------------
+// The tests below answer "provably apart" (the pair is skipped), "touching" (two boxes, for
+// which the separating axis theorem is complete) or "unknown" (FCL decides). "Apart" comes
+// from the separating axis theorem: two convex shapes whose projections on some axis do not
+// overlap are disjoint, whichever axis it is. The candidate axes are the ones that separate
+// most pairs in practice; a pair that none of them separates goes to FCL, so the culled check
+// answers like FCL alone (test_arm_collision compares both on random and near-contact states).
+
+/// Projections must be apart by more than this before a pair that FCL would hand to GJK/MPR
+/// (cylinders, spheres) counts as apart: those report contact within their own tolerance
+/// (1e-6), and a sub-micron gap is not worth an argument with them. Box pairs are decided
+/// exactly, like FCL's own box-box test.
+constexpr double kGjkToleranceM = 1e-6;
+
+/// Half-width of a shape's projection on the unit axis n (world frame) about its centre.
+double projectedHalfWidth(const ConvexShape& s, const Eigen::Isometry3d& pose, const Eigen::Vector3d& n)
 {
-  a.setZero();
-  b.setZero();
+  const auto r = pose.linear();
   switch (s.type)
   {
     case RobotShape::Type::Box:
-    {
-      const Eigen::Vector3d half = 0.5 * s.size_m + Eigen::Vector3d::Constant(padding_m);
-      Eigen::Index k = 0;
-      half.maxCoeff(&k);
-      a[k] = -half[k];
-      b[k] = half[k];
-      radius = std::hypot(half[(k + 1) % 3], half[(k + 2) % 3]);
-      break;
-    }
+      return s.half.x() * std::abs(n.dot(r.col(0))) + s.half.y() * std::abs(n.dot(r.col(1))) +
+             s.half.z() * std::abs(n.dot(r.col(2)));
     case RobotShape::Type::Cylinder:
-      a.z() = -(0.5 * s.size_m.z() + padding_m);
-      b.z() = -a.z();
-      radius = s.size_m.x() + padding_m;
-      break;
+    {
+      // Axis part h |cos| plus the disc's radius r |sin| (the disc's extent along n).
+      const double c = n.dot(r.col(2));
+      return s.half.z() * std::abs(c) + s.half.x() * std::sqrt(std::max(0.0, 1.0 - c * c));
+    }
     case RobotShape::Type::Sphere:
     default:
-      radius = s.size_m.x() + padding_m;
+      return s.half.x();
   }
 }
 
-/// Squared distance between segments [p1, q1] and [p2, q2] (Ericson, Real-Time Collision
-/// Detection, 5.1.9).
-double segmentDistanceSquared(const Eigen::Vector3d& p1, const Eigen::Vector3d& q1, const Eigen::Vector3d& p2,
-                              const Eigen::Vector3d& q2)
+/// Half-extents of a shape's world axis-aligned bounding box.
+Eigen::Vector3d aabbHalfExtents(const ConvexShape& s, const Eigen::Isometry3d& pose)
+{
+  const auto r = pose.linear();
+  switch (s.type)
+  {
+    case RobotShape::Type::Box:
+      return r.cwiseAbs() * s.half;
+    case RobotShape::Type::Cylinder:
+    {
+      const Eigen::Vector3d axis = r.col(2);
+      return (s.half.z() * axis.cwiseAbs().array() +
+              s.half.x() * (1.0 - axis.array().square()).max(0.0).sqrt())
+          .matrix();
+    }
+    case RobotShape::Type::Sphere:
+    default:
+      return Eigen::Vector3d::Constant(s.half.x());
+  }
+}
+
+/// Number of principal directions (face normals / axis) of a shape: columns of its rotation.
+int principalDirections(const ConvexShape& s, int& first)
+{
+  switch (s.type)
+  {
+    case RobotShape::Type::Box:
+      first = 0;
+      return 3;
+    case RobotShape::Type::Cylinder:
+      first = 2;  // the cylinder's axis
+      return 1;
+    case RobotShape::Type::Sphere:
+    default:
+      first = 0;
+      return 0;
+  }
+}
+
+/// Core segment of a shape in world coordinates: the cylinder's axis, the box's longest
+/// axis, the sphere's centre (the shape is its core swept by a small ball).
+void coreSegment(const ConvexShape& s, const Eigen::Isometry3d& pose, Eigen::Vector3d& a, Eigen::Vector3d& b)
+{
+  Eigen::Index k = 2;
+  if (s.type == RobotShape::Type::Box)
+    s.half.maxCoeff(&k);
+  const double half_length = s.type == RobotShape::Type::Sphere ? 0.0 : s.half[k];
+  const Eigen::Vector3d offset = half_length * pose.linear().col(k);
+  a = pose.translation() - offset;
+  b = pose.translation() + offset;
+}
+
+/// Closest points c1 on [p1, q1] and c2 on [p2, q2] (Ericson, Real-Time Collision Detection,
+/// 5.1.9).
+void closestPointsOfSegments(const Eigen::Vector3d& p1, const Eigen::Vector3d& q1, const Eigen::Vector3d& p2,
+                             const Eigen::Vector3d& q2, Eigen::Vector3d& c1, Eigen::Vector3d& c2)
 {
   const Eigen::Vector3d d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
   const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
   double s = 0.0, t = 0.0;
   constexpr double kEps = 1e-12;
-  if (a <= kEps && e <= kEps)
-    return r.squaredNorm();
-  if (a <= kEps)
+  if (a <= kEps && e > kEps)
     t = std::clamp(f / e, 0.0, 1.0);
-  else
+  else if (a > kEps)
   {
     const double c = d1.dot(r);
     if (e <= kEps)
@@ -136,31 +220,67 @@ double segmentDistanceSquared(const Eigen::Vector3d& p1, const Eigen::Vector3d& 
       }
     }
   }
-  return ((p1 + d1 * s) - (p2 + d2 * t)).squaredNorm();
+  c1 = p1 + d1 * s;
+  c2 = p2 + d2 * t;
 }
 
-/// Does segment [a, b] meet the axis-aligned box |x| <= half (slab test)?
-bool segmentHitsBox(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& half)
+/// What the separating axis tests can tell about a pair of shapes.
+enum class PairVerdict
 {
-  double t0 = 0.0, t1 = 1.0;
-  const Eigen::Vector3d d = b - a;
-  for (int k = 0; k < 3; ++k)
-  {
-    if (std::abs(d[k]) < 1e-12)
-    {
-      if (std::abs(a[k]) > half[k])
-        return false;
-      continue;
-    }
-    double ta = (-half[k] - a[k]) / d[k], tb = (half[k] - a[k]) / d[k];
-    if (ta > tb)
-      std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-    if (t0 > t1)
-      return false;
-  }
-  return true;
+  Apart,     // a separating axis exists: no contact
+  Touching,  // two boxes and none of their 15 axes separates: contact (SAT is complete for boxes)
+  Unknown    // no candidate axis separates, and the candidates are not complete: ask FCL
+};
+
+/// Candidates, cheapest and most often separating first: the bounding spheres, the line
+/// between the closest points of the core segments, the principal directions of both shapes,
+/// then their cross products (edge-edge axes). For two boxes these are all 15 axes of the
+/// separating axis theorem (a degenerate cross product belongs to parallel edges, whose
+/// separation the face axes already cover), so "none separates" means contact.
+PairVerdict classifyPair(const ConvexShape& a, const Eigen::Isometry3d& ta, const ConvexShape& b,
+                         const Eigen::Isometry3d& tb)
+{
+  const Eigen::Vector3d d = tb.translation() - ta.translation();
+  const double reach = a.bounding_radius + b.bounding_radius;
+  if (d.squaredNorm() > reach * reach)
+    return PairVerdict::Apart;
+  const auto ra = ta.linear();
+  const auto rb = tb.linear();
+  const bool boxes = a.type == RobotShape::Type::Box && b.type == RobotShape::Type::Box;
+  const double margin = boxes ? 0.0 : kGjkToleranceM;
+  auto separates = [&](const Eigen::Vector3d& axis) {
+    const double norm2 = axis.squaredNorm();
+    if (norm2 < 1e-12)
+      return false;  // degenerate (parallel edges, touching cores): no information
+    const Eigen::Vector3d n = axis / std::sqrt(norm2);
+    return std::abs(n.dot(d)) > projectedHalfWidth(a, ta, n) + projectedHalfWidth(b, tb, n) + margin;
+  };
+  Eigen::Vector3d a0, a1, b0, b1, ca, cb;
+  coreSegment(a, ta, a0, a1);
+  coreSegment(b, tb, b0, b1);
+  closestPointsOfSegments(a0, a1, b0, b1, ca, cb);
+  if (separates(cb - ca))
+    return PairVerdict::Apart;
+  int first_a = 0, first_b = 0;
+  const int count_a = principalDirections(a, first_a), count_b = principalDirections(b, first_b);
+  for (int i = first_a; i < first_a + count_a; ++i)
+    if (separates(ra.col(i)))
+      return PairVerdict::Apart;
+  for (int j = first_b; j < first_b + count_b; ++j)
+    if (separates(rb.col(j)))
+      return PairVerdict::Apart;
+  for (int i = first_a; i < first_a + count_a; ++i)
+    for (int j = first_b; j < first_b + count_b; ++j)
+      if (separates(ra.col(i).cross(rb.col(j))))
+        return PairVerdict::Apart;
+  return boxes ? PairVerdict::Touching : PairVerdict::Unknown;
+}
+
+/// Can a shape with world AABB (centre, half) reach the bounds of an OctoMap?
+bool aabbMayTouchBounds(const Eigen::Vector3d& centre, const Eigen::Vector3d& half, const Eigen::Vector3d& min,
+                        const Eigen::Vector3d& max)
+{
+  return ((centre + half).array() >= min.array()).all() && ((centre - half).array() <= max.array()).all();
 }
 
 bool insideShape(const RobotShape& s, const Eigen::Isometry3d& pose, const Eigen::Vector3d& p, double pad)
@@ -203,6 +323,27 @@ std::shared_ptr<const octomap::OcTree> insertPoints(const std::shared_ptr<const 
   }
   tree->updateInnerOccupancy();
   return tree;
+}
+}  // namespace
+
+namespace
+{
+/// Bounds of every leaf (occupied or not: FCL applies its own occupancy threshold), grown by
+/// one voxel so that rounding in FCL's octree boxes cannot fall outside them. An empty tree
+/// gets inverted bounds, which no shape touches.
+RobotCollision::Scene::Bounds occupiedBounds(const octomap::OcTree& tree)
+{
+  RobotCollision::Scene::Bounds bounds;
+  bounds.min.setConstant(std::numeric_limits<double>::infinity());
+  bounds.max.setConstant(-std::numeric_limits<double>::infinity());
+  for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it)
+  {
+    const Eigen::Vector3d centre(it.getX(), it.getY(), it.getZ());
+    const double half = 0.5 * it.getSize() + tree.getResolution();
+    bounds.min = bounds.min.cwiseMin(centre - Eigen::Vector3d::Constant(half));
+    bounds.max = bounds.max.cwiseMax(centre + Eigen::Vector3d::Constant(half));
+  }
+  return bounds;
 }
 }  // namespace
 
@@ -289,13 +430,8 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
   {
     const auto g = makeGeometry(s, link_padding_m_);
     geometry->shapes.push_back(g.first);
-    geometry->bounding_radius.push_back(g.second);
-    Eigen::Vector3d a, b;
-    double radius = 0.0;
-    enclosingCapsule(s, link_padding_m_, a, b, radius);
-    geometry->capsule_a.push_back(a);
-    geometry->capsule_b.push_back(b);
-    geometry->capsule_radius.push_back(radius);
+    geometry->convex.push_back(g.second);
+    geometry->offset_rotation.push_back(s.offset.linear());
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -345,7 +481,7 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
       if (body < 1)
         continue;
       double reach = (poses[i].translation() - origins[static_cast<std::size_t>(body - 1)]).norm() +
-                     geometry_->bounding_radius[i];
+                     geometry_->convex[i].bounding_radius;
       for (int j = body - 1; j >= 0; --j)
       {
         lever_arms_m_[j] = std::max(lever_arms_m_[j], reach);
@@ -376,6 +512,7 @@ std::size_t RobotCollision::addObstacleCloud(const pcl::PointCloud<pcl::PointXYZ
   std::size_t inserted = 0;
   scene->obstacles = insertPoints(scene_->obstacles, scene->resolution_m, filtered, inserted);
   scene->obstacles_fcl = std::make_shared<fcl::OcTreed>(scene->obstacles);
+  scene->obstacles_bounds = occupiedBounds(*scene->obstacles);
   scene_ = scene;
   return inserted;
 }
@@ -386,6 +523,7 @@ std::size_t RobotCollision::setTargetCloud(const pcl::PointCloud<pcl::PointXYZ>&
   std::size_t inserted = 0;
   scene->target = insertPoints(nullptr, scene->resolution_m, cloud, inserted);
   scene->target_fcl = inserted > 0 ? std::make_shared<fcl::OcTreed>(scene->target) : nullptr;
+  scene->target_bounds = occupiedBounds(*scene->target);
   if (inserted == 0)
     scene->target = nullptr;
   scene_ = scene;
@@ -399,8 +537,10 @@ void RobotCollision::addBox(const std::string& name, const Eigen::Vector3d& size
   box.name = name;
   box.geometry = std::make_shared<fcl::Boxd>(size_m.x(), size_m.y(), size_m.z());
   box.pose = pose;
-  box.bounding_radius = 0.5 * size_m.norm();
-  box.half_size = 0.5 * size_m;
+  box.convex.type = RobotShape::Type::Box;
+  box.convex.half = 0.5 * size_m.cwiseAbs();
+  box.convex.bounding_radius = box.convex.half.norm();
+  box.aabb_half_m = aabbHalfExtents(box.convex, pose);
   scene->boxes.push_back(box);
   scene_ = scene;
 }
@@ -426,11 +566,26 @@ std::vector<Eigen::Vector3d> RobotCollision::occupiedVoxelCentres(bool target) c
 
 void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
 {
-  std::vector<Eigen::Isometry3d> links;
+  // Per-thread scratch: the planners call this for every checked state, and a heap
+  // allocation per call showed up in the profile. Still thread-safe (one buffer per thread).
+  thread_local std::vector<Eigen::Isometry3d> links;
   kinematics_.linkPoses(q, links);
   poses.resize(shapes_.size());
   for (std::size_t i = 0; i < shapes_.size(); ++i)
-    poses[i] = links[shapes_[i].chain_link] * shapes_[i].offset;
+  {
+    // links * offset on contiguous 3 x 3 copies: Eigen inlines that product, not the one
+    // of an Isometry3d's blocks (this runs for every state a planner checks).
+    const Eigen::Isometry3d& link = links[shapes_[i].chain_link];
+    const Eigen::Matrix3d link_rotation = link.linear();
+    const Eigen::Matrix3d& offset_rotation = geometry_->offset_rotation[i];
+    Eigen::Matrix3d rotation;
+    rotation.noalias() = link_rotation * offset_rotation;
+    Eigen::Vector3d translation = link.translation();
+    translation.noalias() += link_rotation * shapes_[i].offset.translation();
+    poses[i].linear() = rotation;
+    poses[i].translation() = translation;
+    poses[i].makeAffine();
+  }
 }
 
 pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::PointCloud<pcl::PointXYZ>& cloud,
@@ -460,33 +615,17 @@ pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::Poin
   return out;
 }
 
-namespace
-{
-/// Cheap reject before FCL: can a sphere (centre, radius) reach an oriented box?
-bool sphereMayTouchBox(const Eigen::Vector3d& centre, double radius, const Eigen::Isometry3d& box_pose,
-                       const Eigen::Vector3d& half_size)
-{
-  const Eigen::Vector3d local = box_pose.linear().transpose() * (centre - box_pose.translation());
-  const Eigen::Vector3d outside = (local.cwiseAbs() - half_size).cwiseMax(0.0);
-  return outside.squaredNorm() <= radius * radius;
-}
-}  // namespace
-
-bool RobotCollision::selfCollision(const std::vector<Eigen::Isometry3d>& poses, std::string* why) const
+bool RobotCollision::selfCollision(const std::vector<Eigen::Isometry3d>& poses, bool cull, std::string* why) const
 {
   for (const auto& pair : self_pairs_)
   {
     const std::size_t i = pair.first, j = pair.second;
-    // Bounding-sphere reject first: most pairs are far apart.
-    const double reach = geometry_->bounding_radius[i] + geometry_->bounding_radius[j];
-    if ((poses[i].translation() - poses[j].translation()).squaredNorm() > reach * reach)
+    const PairVerdict verdict =
+        cull ? classifyPair(geometry_->convex[i], poses[i], geometry_->convex[j], poses[j]) : PairVerdict::Unknown;
+    if (verdict == PairVerdict::Apart)
       continue;
-    const double capsules = geometry_->capsule_radius[i] + geometry_->capsule_radius[j];
-    if (segmentDistanceSquared(poses[i] * geometry_->capsule_a[i], poses[i] * geometry_->capsule_b[i],
-                               poses[j] * geometry_->capsule_a[j], poses[j] * geometry_->capsule_b[j]) >
-        capsules * capsules)
-      continue;
-    if (collide(geometry_->shapes[i].get(), poses[i], geometry_->shapes[j].get(), poses[j]))
+    if (verdict == PairVerdict::Touching ||
+        collide(geometry_->shapes[i].get(), poses[i], geometry_->shapes[j].get(), poses[j]))
     {
       if (why)
         *why = "self: " + shapes_[i].link + " / " + shapes_[j].link;
@@ -504,9 +643,9 @@ bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why)
       *why = "invalid joint vector";
     return true;
   }
-  std::vector<Eigen::Isometry3d> poses;
+  thread_local std::vector<Eigen::Isometry3d> poses;
   shapePoses(q, poses);
-  return selfCollision(poses, why);
+  return selfCollision(poses, true, why);
 }
 
 bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckOptions& options,
@@ -518,26 +657,32 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       *why = "invalid joint vector";
     return true;
   }
-  std::vector<Eigen::Isometry3d> poses;
+  thread_local std::vector<Eigen::Isometry3d> poses;  // per-thread scratch, see shapePoses()
   shapePoses(q, poses);
   const Scene& scene = *scene_;
+  const bool cull = options.conservative_culling;
   // Environment first: with a table most invalid states are caught by one cheap box test.
   for (std::size_t i = 0; i < shapes_.size(); ++i)
   {
     if (shapes_[i].body == 0)
       continue;  // fixed to the base: the mount may touch the table, and it never moves
-    const fcl::CollisionGeometryd* shape = geometry_->shapes[i].get();
-    const double radius = geometry_->bounding_radius[i];
+    const ConvexShape& convex = geometry_->convex[i];
+    const Eigen::Vector3d& centre = poses[i].translation();
     for (const Scene::Box& box : scene.boxes)
     {
-      if (!sphereMayTouchBox(poses[i].translation(), radius, box.pose, box.half_size))
-        continue;
-      // The capsule meets the box only if its segment meets the box grown by its radius.
-      const Eigen::Isometry3d to_box = box.pose.inverse() * poses[i];
-      if (!segmentHitsBox(to_box * geometry_->capsule_a[i], to_box * geometry_->capsule_b[i],
-                          box.half_size + Eigen::Vector3d::Constant(geometry_->capsule_radius[i])))
-        continue;
-      if (collide(shape, poses[i], box.geometry.get(), box.pose))
+      PairVerdict verdict = PairVerdict::Unknown;
+      if (cull)
+      {
+        // The shape's bounding sphere against the box's world AABB (three compares), then
+        // the separating axes.
+        const Eigen::Vector3d gap = (centre - box.pose.translation()).cwiseAbs() - box.aabb_half_m;
+        verdict = gap.maxCoeff() > convex.bounding_radius ? PairVerdict::Apart :
+                                                            classifyPair(convex, poses[i], box.convex, box.pose);
+        if (verdict == PairVerdict::Apart)
+          continue;
+      }
+      if (verdict == PairVerdict::Touching ||
+          collide(geometry_->shapes[i].get(), poses[i], box.geometry.get(), box.pose))
       {
         if (why)
           *why = "box " + box.name + " / " + shapes_[i].link;
@@ -545,20 +690,29 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       }
     }
   }
-  if (selfCollision(poses, why))
+  if (selfCollision(poses, cull, why))
     return true;
+  const bool check_target = scene.target_fcl && !options.ignore_target;
+  if (!scene.obstacles_fcl && !check_target)
+    return false;
   for (std::size_t i = 0; i < shapes_.size(); ++i)
   {
     if (shapes_[i].body == 0)
       continue;
     const fcl::CollisionGeometryd* shape = geometry_->shapes[i].get();
-    if (scene.obstacles_fcl && collide(shape, poses[i], scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
+    // The shape's world AABB against the bounds of the OctoMap's leaves.
+    const Eigen::Vector3d half = aabbHalfExtents(geometry_->convex[i], poses[i]);
+    const Eigen::Vector3d& centre = poses[i].translation();
+    if (scene.obstacles_fcl &&
+        (!cull || aabbMayTouchBounds(centre, half, scene.obstacles_bounds.min, scene.obstacles_bounds.max)) &&
+        collide(shape, poses[i], scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)
         *why = "octomap / " + shapes_[i].link;
       return true;
     }
-    if (scene.target_fcl && !options.ignore_target && !(options.allow_finger_target_contact && shapes_[i].finger) &&
+    if (check_target && !(options.allow_finger_target_contact && shapes_[i].finger) &&
+        (!cull || aabbMayTouchBounds(centre, half, scene.target_bounds.min, scene.target_bounds.max)) &&
         collide(shape, poses[i], scene.target_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+#include <sstream>
+
 namespace
 {
 using fast_grasp::ArmKinematics;
@@ -174,3 +177,92 @@ TEST(RobotCollision, OnlyFingersMayTouchTheTargetDuringApproach)
 }
 
 }  // namespace
+
+namespace
+{
+/// A scene with every obstacle kind: axis-aligned and rotated boxes (the narrow-passage slot, a
+/// tilted board), an OctoMap block and a target.
+RobotCollision clutteredScene(const RobotCollision& robot)
+{
+  RobotCollision collision = robot;
+  collision.resetScene(0.02);
+  auto box = [&](const std::string& name, const Eigen::Vector3d& size, const Eigen::Vector3d& centre,
+                 const Eigen::AngleAxisd& rotation) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = centre;
+    pose.linear() = rotation.toRotationMatrix();
+    collision.addBox(name, size, pose);
+  };
+  const Eigen::AngleAxisd level(0.0, Eigen::Vector3d::UnitZ());
+  box("table", Eigen::Vector3d(1.6, 1.6, 0.1), Eigen::Vector3d(0.3, 0.0, -0.05), level);
+  box("left_wall", Eigen::Vector3d(0.3, 0.1, 0.4), Eigen::Vector3d(0.55, 0.19, 0.2), level);
+  box("right_wall", Eigen::Vector3d(0.3, 0.1, 0.4), Eigen::Vector3d(0.55, -0.19, 0.2), level);
+  box("roof", Eigen::Vector3d(0.3, 0.48, 0.06), Eigen::Vector3d(0.55, 0.0, 0.43), level);
+  box("tilted_board", Eigen::Vector3d(0.4, 0.3, 0.02), Eigen::Vector3d(-0.3, 0.4, 0.5),
+      Eigen::AngleAxisd(0.6, Eigen::Vector3d(1.0, 1.0, 0.3).normalized()));
+  collision.addObstacleCloud(boxCloud(Eigen::Vector3d(-0.5, -0.5, 0.1), Eigen::Vector3d(-0.35, -0.3, 0.3), 0.02),
+                             Eigen::VectorXd());
+  collision.setTargetCloud(boxCloud(Eigen::Vector3d(0.5, -0.03, 0.0), Eigen::Vector3d(0.56, 0.03, 0.15), 0.01));
+  return collision;
+}
+}  // namespace
+
+// The culling tests in front of FCL (bounding spheres and boxes, separating axes) may only
+// skip pairs that are apart; the culled check must answer like FCL alone, also next to contacts.
+TEST(RobotCollision, CulledCheckAgreesWithFclAlone)
+{
+  const RobotCollision robot(ur5(), 0.005);
+  const RobotCollision scene = clutteredScene(robot);
+  CollisionCheckOptions culled, fcl_only;
+  fcl_only.conservative_culling = false;
+  std::mt19937 rng(7);
+  const ArmKinematics& kin = robot.kinematics();
+  std::vector<Eigen::VectorXd> free_states, colliding_states;
+  int disagreements = 0;
+  std::string first_disagreement;
+  auto compare = [&](const RobotCollision& collision, const Eigen::VectorXd& q) {
+    std::string why_culled, why_fcl;
+    const bool hit_culled = collision.inCollision(q, culled, &why_culled);
+    const bool hit_fcl = collision.inCollision(q, fcl_only, &why_fcl);
+    if (hit_culled != hit_fcl && disagreements++ == 0)
+    {
+      std::ostringstream out;
+      out << "q = " << q.transpose() << ": culled says " << (hit_culled ? why_culled : "free") << ", FCL alone "
+          << (hit_fcl ? why_fcl : "free");
+      first_disagreement = out.str();
+    }
+    return hit_fcl;
+  };
+  for (int i = 0; i < 20000; ++i)
+  {
+    const Eigen::VectorXd q = kin.randomConfiguration(rng);
+    (compare(scene, q) ? colliding_states : free_states).push_back(q);
+    compare(robot, q);  // empty scene: self-collision alone
+  }
+  EXPECT_EQ(disagreements, 0) << first_disagreement;
+  ASSERT_GT(free_states.size(), 1000u);
+  ASSERT_GT(colliding_states.size(), 1000u);
+  // Near contacts, where culling could go wrong: bisect free -> colliding segments down to a
+  // step of 1e-6 rad (about a micrometre at the hand) and compare on both sides.
+  int near_contact = 0;
+  for (std::size_t k = 0; k < 1000; ++k)
+  {
+    Eigen::VectorXd a = free_states[k % free_states.size()], b = colliding_states[k % colliding_states.size()];
+    while ((b - a).cwiseAbs().maxCoeff() > 1e-6)
+    {
+      const Eigen::VectorXd mid = 0.5 * (a + b);
+      (compare(scene, mid) ? b : a) = mid;
+    }
+    compare(scene, a);
+    compare(scene, b);
+    ++near_contact;
+  }
+  EXPECT_EQ(near_contact, 1000);
+  EXPECT_EQ(disagreements, 0) << first_disagreement;
+  // inSelfCollision culls too.
+  for (int i = 0; i < 2000; ++i)
+  {
+    const Eigen::VectorXd q = kin.randomConfiguration(rng);
+    EXPECT_EQ(robot.inSelfCollision(q), robot.inCollision(q, fcl_only)) << q.transpose();
+  }
+}
