@@ -1,9 +1,10 @@
 // OMPL planner benchmark on the UR5 scenes of config/benchmarks/*.yaml, after the thesis's
 // Ch6.3 (Tables 6.3/6.4): per scene and time limit, every planner runs --runs times through
-// ompl::tools::Benchmark (its .log opens in Planner Arena after ompl_benchmark_statistics.py),
-// (one log per planner: each planner runs in a child process, so an OMPL crash costs only its
-// row), then a table (solved %, time mean (sd), path length mean (sd)), a CSV of every run and PNG
-// bar/box plots (matplotlib) are written. The last lines, one per planner, read
+// ompl::tools::Benchmark (one OMPL log per planner: each planner runs in a child process, so an
+// OMPL crash costs only its row), then a table (solved %, time mean (sd), path length mean (sd)),
+// a CSV of every run, PNG bar/box plots (matplotlib) and <out>/benchmark.db, the logs converted
+// for Planner Arena by scripts/ompl_benchmark_db.py, are written. The last lines, one per
+// planner, read
 //   <planner> narrow_passage: solved P % median X ms      (3 s limit)
 //
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
@@ -13,6 +14,7 @@
 #include "fast_grasp/grasp_execution.h"
 
 #include <ompl/geometric/SimpleSetup.h>
+#include <ompl/config.h>
 #include <ompl/tools/benchmark/Benchmark.h>
 #include <ompl/util/Console.h>
 
@@ -201,6 +203,7 @@ int main(int argc, char** argv)
   std::ofstream csv(out_dir + "/runs.csv");
   csv << "scene,limit_s,planner,run,solved,time_s,length_rad\n";
   std::map<std::string, std::vector<PlannerSummary>> narrow_3s;
+  std::vector<std::string> ompl_logs;  // written by this run (the out dir may hold older ones)
   std::vector<std::string> end_to_end_lines;
   for (const std::string& scene_name : scenes)
   {
@@ -313,6 +316,8 @@ int main(int argc, char** argv)
         int child_status = 0;
         waitpid(child, &child_status, 0);
         const bool crashed = !WIFEXITED(child_status) || WEXITSTATUS(child_status) != 0;
+        if (!crashed && fs::exists(stem.str() + ".log"))
+          ompl_logs.push_back(stem.str() + ".log");
         PlannerSummary summary;
         summary.planner = name;
         std::vector<double> times, lengths, all_ms, solve_ms;
@@ -395,8 +400,23 @@ int main(int argc, char** argv)
     if (std::system(command.c_str()) != 0)
       std::printf("plots skipped: /usr/bin/python3 with matplotlib is needed (apt-get install python3-matplotlib)\n");
     else
-      std::printf("plots: %s/<scene>_<limit>s.png; OMPL logs: %s/*.log (ompl_benchmark_statistics.py *.log -> Planner Arena)\n",
-                  out_dir.c_str(), out_dir.c_str());
+      std::printf("plots: %s/<scene>_<limit>s.png; OMPL logs: %s/*.log\n", out_dir.c_str(), out_dir.c_str());
+    // Planner Arena database. Debian's OMPL records an empty version string in its logs.
+    if (!ompl_logs.empty())
+    {
+      const std::string db = fs::absolute(out_dir + "/benchmark.db").string();
+      std::string convert = "/usr/bin/python3 " + std::string(FAST_GRASP_SOURCE_DIR) +
+                            "/scripts/ompl_benchmark_db.py --library-version " +
+                            std::to_string(OMPL_MAJOR_VERSION) + "." + std::to_string(OMPL_MINOR_VERSION) + "." +
+                            std::to_string(OMPL_PATCH_VERSION) + " -o '" + db + "'";
+      for (const std::string& log : ompl_logs)
+        convert += " '" + log + "'";
+      convert += " > /dev/null";
+      if (std::system(convert.c_str()) == 0)
+        std::printf("Planner Arena database: %s\n", db.c_str());
+      else
+        std::printf("Planner Arena database not written: scripts/ompl_benchmark_db.py failed\n");
+    }
   }
   for (const std::string& line : end_to_end_lines)
     std::printf("%s\n", line.c_str());
