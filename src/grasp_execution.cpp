@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 namespace fast_grasp
@@ -84,8 +86,13 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
     readScalar(root, "link_padding_m", p.link_padding_m);
     readScalar(root, "octomap_resolution_m", p.octomap_resolution_m);
     readScalar(root, "self_filter_padding_m", p.self_filter_padding_m);
+    readScalar(root, "table_band_m", p.table_band_m);
+    readScalar(root, "table_thickness_m", p.table_thickness_m);
     readScalar(root, "total_time_budget_s", p.total_time_budget_s);
     readScalar(root, "max_ik_solutions", p.max_ik_solutions);
+    readScalar(root, "try_flipped_grasp", p.try_flipped_grasp);
+    readScalar(root, "max_approach_tilt_deg", p.max_approach_tilt_deg);
+    readScalar(root, "approach_tilt_step_deg", p.approach_tilt_step_deg);
     readScalar(root, "ik_timeout_s", p.ik.timeout_s);
     readScalar(root, "ik_position_tolerance_m", p.ik.position_tolerance_m);
     readScalar(root, "ik_orientation_tolerance_rad", p.ik.orientation_tolerance_rad);
@@ -116,6 +123,13 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
   positive(p.motion.planning_time_s, "planning_time_s");
   positive(p.motion.longest_valid_segment_fraction, "longest_valid_segment_fraction");
   positive(p.total_time_budget_s, "total_time_budget_s");
+  positive(p.table_thickness_m, "table_thickness_m");
+  if (!(p.max_approach_tilt_deg >= 0.0 && p.max_approach_tilt_deg <= 90.0))
+    throw std::runtime_error("arm config '" + arm_yaml + "': 'max_approach_tilt_deg' must be in [0, 90]");
+  if (p.max_approach_tilt_deg > 0.0)
+    positive(p.approach_tilt_step_deg, "approach_tilt_step_deg");
+  if (!(p.table_band_m >= 0.0))
+    throw std::runtime_error("arm config '" + arm_yaml + "': 'table_band_m' must be >= 0");
   if ((p.acceleration_limit_rad_s2.array() <= 0.0).any() || (p.velocity_limit_rad_s.array() <= 0.0).any())
     throw std::runtime_error("arm config '" + arm_yaml + "': velocity/acceleration limits must be > 0");
   if (!planners_yaml.empty())
@@ -133,6 +147,72 @@ std::string applyLimits(const GraspExecutionParams& params, ArmKinematics& kinem
   if (params.velocity_limit_rad_s.size() > 0 && !kinematics.setVelocityLimits(params.velocity_limit_rad_s))
     return "velocity limits need " + std::to_string(kinematics.dof()) + " positive entries";
   return "";
+}
+
+std::string buildGraspScene(RobotCollision& collision, const Eigen::VectorXd& robot_state,
+                            const GraspSceneClouds& clouds, const GraspExecutionParams& params)
+{
+  collision.resetScene(params.octomap_resolution_m);
+  std::string note;
+  pcl::PointCloud<pcl::PointXYZ> obstacles;
+  if (clouds.scene)
+    obstacles = *clouds.scene;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  double offset = 0.0;
+  if (clouds.table_plane && clouds.table_plane->allFinite() && clouds.table_plane->head<3>().norm() > 1e-6f)
+  {
+    const Eigen::Vector4d plane = clouds.table_plane->cast<double>() / clouds.table_plane->head<3>().cast<double>().norm();
+    normal = plane.head<3>();
+    offset = plane.w();
+  }
+  if (normal.squaredNorm() > 0.0 && !obstacles.empty())
+  {
+    // In-plane axes u, v; the table's extent is that of its points along them.
+    const Eigen::Vector3d u = normal.unitOrthogonal(), v = normal.cross(u);
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    pcl::PointCloud<pcl::PointXYZ> rest;
+    rest.reserve(obstacles.size());
+    std::size_t table_points = 0;
+    for (const pcl::PointXYZ& p : obstacles.points)
+    {
+      const Eigen::Vector3d x(p.x, p.y, p.z);
+      const double height = normal.dot(x) + offset;
+      if (std::isfinite(height) && height <= params.table_band_m && height >= -params.table_thickness_m)
+      {
+        const Eigen::Vector2d uv(u.dot(x), v.dot(x));
+        lo = lo.cwiseMin(uv);
+        hi = hi.cwiseMax(uv);
+        ++table_points;
+      }
+      else
+        rest.push_back(p);
+    }
+    if (table_points > 0 && (hi - lo).minCoeff() > 0.0)
+    {
+      const Eigen::Vector2d centre = 0.5 * (lo + hi);
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.linear().col(0) = u;
+      pose.linear().col(1) = v;
+      pose.linear().col(2) = normal;
+      // On the plane: x = centre.u u + centre.v v - offset n; the box centre half its thickness lower.
+      pose.translation() = centre.x() * u + centre.y() * v - (offset + 0.5 * params.table_thickness_m) * normal;
+      collision.addBox("table", Eigen::Vector3d(hi.x() - lo.x(), hi.y() - lo.y(), params.table_thickness_m), pose);
+      obstacles = rest;
+      note = std::to_string(table_points) + " table points as a " + std::to_string(hi.x() - lo.x()).substr(0, 4) +
+             " x " + std::to_string(hi.y() - lo.y()).substr(0, 4) + " m box, ";
+    }
+  }
+  if (clouds.scene)
+    note += std::to_string(collision.addObstacleCloud(obstacles, robot_state, params.self_filter_padding_m)) +
+            " scene points";
+  else
+    note += "no scene cloud";
+  if (clouds.object && !clouds.object->empty())
+    note += ", " + std::to_string(collision.setTargetCloud(*clouds.object)) + " object points";
+  if (clouds.unseen && !clouds.unseen->empty())
+    note += ", " + std::to_string(collision.addObstacleCloud(*clouds.unseen, robot_state, params.self_filter_padding_m)) +
+            " unseen-part points";
+  return note;
 }
 
 std::vector<Eigen::VectorXd> planCartesianLine(const RobotCollision& collision, const Eigen::VectorXd& from,
@@ -182,6 +262,212 @@ std::vector<Eigen::VectorXd> planCartesianLine(const RobotCollision& collision, 
   return path;
 }
 
+namespace
+{
+/// Counts the reasons the IK solutions of one pose failed, for one readable line per grasp.
+class ReasonTally
+{
+public:
+  void add(const std::string& reason) { ++counts_[reason]; }
+  bool empty() const { return counts_.empty(); }
+  std::string summary() const
+  {
+    std::vector<std::pair<int, std::string>> sorted;
+    for (const auto& entry : counts_)
+      sorted.emplace_back(-entry.second, entry.first);
+    std::sort(sorted.begin(), sorted.end());
+    std::string text;
+    for (const auto& entry : sorted)
+      text += (text.empty() ? "" : "; ") + entry.second + (entry.first < -1 ? " (x" + std::to_string(-entry.first) + ")" : "");
+    return text;
+  }
+
+private:
+  std::map<std::string, int> counts_;
+};
+
+/// One way to execute a grasp that puts the fingers on the same contacts (see GraspPlanResult).
+struct GraspVariant
+{
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  bool flipped = false;
+  double tilt_rad = 0.0;
+};
+
+std::string describeVariant(const GraspVariant& v)
+{
+  std::string text;
+  if (v.flipped)
+    text = "flipped 180 deg about the approach axis";
+  if (v.tilt_rad != 0.0)
+  {
+    char tilt[96];
+    std::snprintf(tilt, sizeof(tilt), "tilted %+.0f deg about the closing axis", v.tilt_rad * 180.0 / M_PI);
+    text += (text.empty() ? "" : ", ") + std::string(tilt);
+  }
+  return text.empty() ? "as given" : text;
+}
+
+/// The variants of `pose` other than itself, in the order they are tried: flipped, then tilts
+/// of growing size (the one that points the approach further down first), each unflipped and
+/// flipped. A tilt rotates about the closing axis through the grasp centre, so the closing line
+/// (and with it the contacts) stays where the grasp planner put it.
+std::vector<GraspVariant> graspVariants(const Eigen::Isometry3d& pose, const GraspExecutionParams& params)
+{
+  auto make = [&pose](bool flipped, double tilt) {
+    GraspVariant v;
+    v.flipped = flipped;
+    v.tilt_rad = tilt;
+    v.pose = pose;
+    v.pose.linear() = pose.linear() * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    if (flipped)
+      v.pose.linear() = v.pose.linear() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    return v;
+  };
+  std::vector<GraspVariant> variants;
+  if (params.try_flipped_grasp)
+    variants.push_back(make(true, 0.0));
+  const double max_tilt = params.max_approach_tilt_deg * M_PI / 180.0;
+  const double step = params.approach_tilt_step_deg * M_PI / 180.0;
+  if (!(max_tilt > 0.0) || !(step > 0.0))
+    return variants;
+  // X rotated by +t about Y gains -sin(t) Z: "down" is the sign that lowers X's z component.
+  const double down = pose.linear().col(2).z() >= 0.0 ? 1.0 : -1.0;
+  for (int k = 1; k * step <= max_tilt + 1e-9; ++k)
+    for (const double sign : { down, -down })
+      for (const bool flipped : { false, true })
+        if (!flipped || params.try_flipped_grasp)
+          variants.push_back(make(flipped, sign * k * step));
+  return variants;
+}
+
+struct GoalCandidate
+{
+  std::vector<Eigen::VectorXd> approach;  // pre-grasp ... grasp
+  std::vector<Eigen::VectorXd> lift;      // grasp ... lifted
+};
+
+/// Context shared by the attempts on every pose.
+struct PoseAttempt
+{
+  const RobotCollision& collision;
+  const ArmMotionPlanner& planner;
+  const GraspExecutionParams& params;
+  const Eigen::VectorXd& start;
+  std::vector<std::string> hand_links;  // links rigidly attached to the tip (no joint between)
+  CollisionCheckOptions approach_options, lift_options;
+
+  PoseAttempt(const RobotCollision& c, const ArmMotionPlanner& p, const GraspExecutionParams& pa,
+              const Eigen::VectorXd& s)
+    : collision(c), planner(p), params(pa), start(s)
+  {
+    for (const RobotShape& shape : c.shapes())
+      if (shape.body == static_cast<int>(c.kinematics().dof()))
+        hand_links.push_back(shape.link);
+    approach_options.allow_finger_target_contact = true;
+    lift_options.ignore_target = true;
+  }
+
+  /// "box table / left_finger_link", "octomap / gripper_palm_link", ...: the hand itself hits
+  /// the environment. Its pose is fixed by the tip pose, so every IK solution would too.
+  bool handHitsEnvironment(const std::string& contact) const
+  {
+    if (contact.rfind("self:", 0) == 0)
+      return false;
+    const std::size_t slash = contact.rfind(" / ");
+    return slash != std::string::npos &&
+           std::find(hand_links.begin(), hand_links.end(), contact.substr(slash + 3)) != hand_links.end();
+  }
+
+  /// Every IK solution of `pose` whose approach and lift lines are clear becomes a goal
+  /// candidate; the failures are tallied.
+  std::vector<GoalCandidate> candidates(const Eigen::Isometry3d& pose, ReasonTally& tally) const
+  {
+    const ArmKinematics& kin = collision.kinematics();
+    std::vector<GoalCandidate> found;
+    Eigen::Isometry3d pregrasp = pose;
+    pregrasp.translation() -= params.approach_distance_m * pose.linear().col(0);
+    Eigen::Isometry3d lifted = pose;
+    lifted.translation().z() += params.lift_distance_m;
+
+    IkParams ik = params.ik;
+    ik.max_solutions = std::max(1, params.max_ik_solutions);
+    ik.timeout_s = std::max(ik.timeout_s, 0.02);  // several distinct solutions need more restarts
+    const std::vector<Eigen::VectorXd> grasp_solutions = kin.ik(pose, start, ik);
+    if (grasp_solutions.empty())
+    {
+      tally.add("unreachable (no IK solution)");
+      return found;
+    }
+    std::vector<Eigen::VectorXd> free_grasp_solutions;
+    for (const Eigen::VectorXd& q_grasp : grasp_solutions)
+    {
+      std::string contact;
+      if (collision.inCollision(q_grasp, approach_options, &contact))
+      {
+        if (handHitsEnvironment(contact))
+        {
+          tally.add("the hand itself collides at the grasp pose (" + contact + ")");
+          return found;
+        }
+        tally.add("grasp pose in collision (" + contact + ")");
+        continue;
+      }
+      free_grasp_solutions.push_back(q_grasp);
+      std::vector<Eigen::VectorXd> back = planCartesianLine(collision, q_grasp, pregrasp, params, approach_options, &contact);
+      if (back.empty())
+      {
+        tally.add("approach blocked (" + contact + ")");
+        continue;
+      }
+      std::reverse(back.begin(), back.end());
+      addIfLiftable(std::move(back), lifted, found, tally);
+    }
+    if (!found.empty() || free_grasp_solutions.empty())
+      return found;
+    // Every clear grasp configuration lost its way back to the pre-grasp (IK branch flips near
+    // a singularity, a wrist turning through the table): start from the pre-grasp's own IK
+    // solutions instead and keep the straight lines that end at a clear grasp configuration.
+    for (const Eigen::VectorXd& q_pre : kin.ik(pregrasp, start, ik))
+    {
+      std::string contact;
+      if (!planner.isValid(q_pre, params.motion, &contact))
+        continue;
+      std::vector<Eigen::VectorXd> forward = planCartesianLine(collision, q_pre, pose, params, approach_options, &contact);
+      if (forward.empty())
+      {
+        tally.add("approach from the pre-grasp blocked (" + contact + ")");
+        continue;
+      }
+      addIfLiftable(std::move(forward), lifted, found, tally);
+    }
+    return found;
+  }
+
+  void addIfLiftable(std::vector<Eigen::VectorXd> approach, const Eigen::Isometry3d& lifted,
+                     std::vector<GoalCandidate>& found, ReasonTally& tally) const
+  {
+    std::string contact;
+    if (!planner.isValid(approach.front(), params.motion, &contact))
+    {
+      tally.add("pre-grasp invalid (" + contact + ")");
+      return;
+    }
+    for (const GoalCandidate& other : found)
+      if ((other.approach.back() - approach.back()).cwiseAbs().maxCoeff() < 1e-3 &&
+          (other.approach.front() - approach.front()).cwiseAbs().maxCoeff() < 1e-3)
+        return;  // the same configurations, reached from the other end
+    std::vector<Eigen::VectorXd> lift = planCartesianLine(collision, approach.back(), lifted, params, lift_options, &contact);
+    if (lift.empty())
+    {
+      tally.add("lift blocked (" + contact + ")");
+      return;
+    }
+    found.push_back({ std::move(approach), std::move(lift) });
+  }
+};
+}  // namespace
+
 GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::VectorXd& start,
                                 const std::vector<GraspCandidate>& grasps, const GraspExecutionParams& params)
 {
@@ -224,96 +510,30 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
                                    params.acceleration_limit_rad_s2 :
                                    Eigen::VectorXd::Constant(static_cast<Eigen::Index>(kin.dof()), 2.0);
   const ArmMotionPlanner planner(collision);
-  CollisionCheckOptions approach_options;
-  approach_options.allow_finger_target_contact = true;
-  CollisionCheckOptions lift_options;
-  lift_options.ignore_target = true;
+  const PoseAttempt attempt(collision, planner, params, start);
 
-  for (std::size_t i = 0; i < grasps.size(); ++i)
-  {
-    const std::string tag = "grasp " + std::to_string(i) + ": ";
-    const double remaining = params.total_time_budget_s - clock.elapsedSeconds();
-    if (remaining <= 0.0)
-    {
-      result.skipped_reasons.push_back(tag + "not tried (time budget spent)");
-      continue;
-    }
-    const GraspCandidate& grasp = grasps[i];
-    if (!grasp.pose.matrix().allFinite())
-    {
-      result.skipped_reasons.push_back(tag + "NaN pose");
-      continue;
-    }
-    Eigen::Isometry3d pregrasp = grasp.pose;
-    pregrasp.translation() -= params.approach_distance_m * grasp.approach().normalized();
-    Eigen::Isometry3d lifted = grasp.pose;
-    lifted.translation().z() += params.lift_distance_m;
+  // Why each grasp was not used: as given (first pass), then its variants (second pass).
+  std::vector<std::string> as_given(grasps.size()), variants_note(grasps.size());
 
-    IkParams ik = params.ik;
-    ik.max_solutions = std::max(1, params.max_ik_solutions);
-    ik.timeout_s = std::max(ik.timeout_s, 0.02);  // several distinct solutions need more restarts
-    const std::vector<Eigen::VectorXd> grasp_solutions = kin.ik(grasp.pose, start, ik);
-    if (grasp_solutions.empty())
-    {
-      result.skipped_reasons.push_back(tag + "unreachable (no IK solution)");
-      continue;
-    }
-    // Candidates: grasp configuration, its approach line (pre-grasp first) and its lift line.
-    struct Candidate
-    {
-      std::vector<Eigen::VectorXd> approach, lift;
-    };
-    std::vector<Candidate> candidates;
-    std::string last_reason;
-    for (const Eigen::VectorXd& q_grasp : grasp_solutions)
-    {
-      std::string contact;
-      if (collision.inCollision(q_grasp, approach_options, &contact))
-      {
-        last_reason = "grasp pose in collision (" + contact + ")";
-        continue;
-      }
-      std::vector<Eigen::VectorXd> back = planCartesianLine(collision, q_grasp, pregrasp, params, approach_options, &contact);
-      if (back.empty())
-      {
-        last_reason = "approach blocked (" + contact + ")";
-        continue;
-      }
-      if (!planner.isValid(back.back(), params.motion, &contact))
-      {
-        last_reason = "pre-grasp invalid (" + contact + ")";
-        continue;
-      }
-      std::vector<Eigen::VectorXd> lift = planCartesianLine(collision, q_grasp, lifted, params, lift_options, &contact);
-      if (lift.empty())
-      {
-        last_reason = "lift blocked (" + contact + ")";
-        continue;
-      }
-      std::reverse(back.begin(), back.end());
-      candidates.push_back({ back, lift });
-    }
-    if (candidates.empty())
-    {
-      result.skipped_reasons.push_back(tag + (last_reason.empty() ? "unreachable" : last_reason));
-      continue;
-    }
+  // Plans from the start to one of `candidates` and fills the result; false with a reason.
+  auto planTo = [&](std::size_t i, const GraspVariant& variant, const std::vector<GoalCandidate>& candidates,
+                    std::string& failure) {
     std::vector<Eigen::VectorXd> goals;
-    for (const Candidate& c : candidates)
+    for (const GoalCandidate& c : candidates)
       goals.push_back(c.approach.front());
     MotionPlanningParams motion = params.motion;
     motion.planning_time_s = std::min(motion.planning_time_s, params.total_time_budget_s - clock.elapsedSeconds());
     if (motion.planning_time_s <= 0.0)
     {
-      result.skipped_reasons.push_back(tag + "not tried (time budget spent)");
-      continue;
+      failure = "not tried (time budget spent)";
+      return false;
     }
     const MotionPlanResult plan = planner.plan(start, goals, motion);
     if (!plan.ok())
     {
-      result.skipped_reasons.push_back(tag + (plan.status == MotionPlanStatus::NoPath ? "no path in time" : toString(plan.status)) +
-                                       " (" + plan.message + ")");
-      continue;
+      failure = (plan.status == MotionPlanStatus::NoPath ? std::string("no path in time") : toString(plan.status)) +
+                " (" + plan.message + ")";
+      return false;
     }
     // The goal set was reached at one of the candidates' pre-grasps.
     std::size_t chosen = 0;
@@ -327,7 +547,7 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
         chosen = c;
       }
     }
-    const Candidate& cand = candidates[chosen];
+    const GoalCandidate& cand = candidates[chosen];
     std::vector<TrajectoryPoint> to_pregrasp, approach, lift;
     std::string timing_error;
     std::vector<Eigen::VectorXd> free_path = plan.path;
@@ -336,8 +556,8 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
         !timeParameterize(cand.approach, timing, approach, &timing_error) ||
         !timeParameterize(cand.lift, timing, lift, &timing_error))
     {
-      result.skipped_reasons.push_back(tag + "time parameterisation failed (" + timing_error + ")");
-      continue;
+      failure = "time parameterisation failed (" + timing_error + ")";
+      return false;
     }
     result.points = to_pregrasp;
     result.pregrasp_point_index = result.points.size() - 1;
@@ -349,10 +569,83 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
     result.waypoints.insert(result.waypoints.end(), cand.lift.begin() + 1, cand.lift.end());
     result.success = true;
     result.grasp_index = static_cast<int>(i);
-    return finish("grasp " + std::to_string(i) + " planned with " + params.motion.planner + " in " +
-                  std::to_string(clock.elapsedSeconds()) + " s, " + std::to_string(result.points.size()) +
-                  " trajectory points, duration " + std::to_string(result.points.back().time_from_start_s) + " s");
+    result.flipped = variant.flipped;
+    result.tilt_rad = variant.tilt_rad;
+    result.executed_pose = variant.pose;
+    result.variant = variant.flipped || variant.tilt_rad != 0.0 ? describeVariant(variant) : "";
+    return true;
+  };
+  auto finishPlanned = [&](std::size_t i) {
+    for (std::size_t k = 0; k < grasps.size(); ++k)
+      if (!as_given[k].empty())
+        result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": " + as_given[k] +
+                                         (variants_note[k].empty() ? "" : "; " + variants_note[k]));
+    return finish("grasp " + std::to_string(i) + (result.variant.empty() ? "" : " (" + result.variant + ")") +
+                  " planned with " + params.motion.planner + " in " + std::to_string(clock.elapsedSeconds()) + " s, " +
+                  std::to_string(result.points.size()) + " trajectory points, duration " +
+                  std::to_string(result.points.back().time_from_start_s) + " s");
+  };
+
+  // First pass: every grasp as the grasp planner gave it, best first. A variant of a better
+  // grasp is not preferred to a worse grasp as given: the planner's ranking holds first.
+  std::vector<bool> worth_varying(grasps.size(), false);
+  for (std::size_t i = 0; i < grasps.size(); ++i)
+  {
+    if (params.total_time_budget_s - clock.elapsedSeconds() <= 0.0)
+    {
+      as_given[i] = "not tried (time budget spent)";
+      continue;
+    }
+    const GraspCandidate& grasp = grasps[i];
+    if (!grasp.pose.matrix().allFinite())
+    {
+      as_given[i] = "NaN pose";
+      continue;
+    }
+    GraspVariant given;
+    given.pose = grasp.pose;
+    ReasonTally tally;
+    const std::vector<GoalCandidate> candidates = attempt.candidates(given.pose, tally);
+    worth_varying[i] = true;
+    if (candidates.empty())
+    {
+      as_given[i] = tally.empty() ? "unreachable" : tally.summary();
+      continue;
+    }
+    std::string failure;
+    if (planTo(i, given, candidates, failure))
+      return finishPlanned(i);
+    as_given[i] = failure;
   }
+  // Second pass: the same contacts reached differently (flipped hand, tilted approach).
+  for (std::size_t i = 0; i < grasps.size(); ++i)
+  {
+    if (!worth_varying[i])
+      continue;
+    const std::vector<GraspVariant> variants = graspVariants(grasps[i].pose, params);
+    if (variants.empty())
+      continue;
+    ReasonTally tally;
+    std::size_t tried = 0;
+    for (const GraspVariant& variant : variants)
+    {
+      if (params.total_time_budget_s - clock.elapsedSeconds() <= 0.0)
+        break;
+      ++tried;
+      const std::vector<GoalCandidate> candidates = attempt.candidates(variant.pose, tally);
+      if (candidates.empty())
+        continue;
+      std::string failure;
+      if (planTo(i, variant, candidates, failure))
+        return finishPlanned(i);
+      tally.add(failure);
+    }
+    variants_note[i] = "flipped/tilted variants: " + std::to_string(tried) + " of " + std::to_string(variants.size()) +
+                       " tried" + (tally.empty() ? "" : " (" + tally.summary() + ")");
+  }
+  for (std::size_t k = 0; k < grasps.size(); ++k)
+    result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": " + as_given[k] +
+                                     (variants_note[k].empty() ? "" : "; " + variants_note[k]));
   return finish("no grasp reachable and plannable (" + std::to_string(result.skipped_reasons.size()) + " skipped)");
 }
 

@@ -8,6 +8,7 @@
 #include "fast_grasp/robot_collision.h"
 #include "fast_grasp/trajectory_timing.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,8 +31,17 @@ struct GraspExecutionParams
   double link_padding_m = 0.005;         // robot shapes inflated by this for planning
   double octomap_resolution_m = 0.01;
   double self_filter_padding_m = 0.02;   // scene points this close to the arm are dropped
+  double table_band_m = 0.01;            // scene points this close above the table plane (or under it) are table
+  double table_thickness_m = 0.05;       // of the box that replaces them (its top is the fitted plane)
   double total_time_budget_s = 10.0;     // across all grasps tried
   int max_ik_solutions = 8;              // goal set per grasp (ranked by distance from start)
+  /// When no grasp works as given, each is tried again with the same closing line reached
+  /// differently: the hand turned 180 deg about the approach axis (a two-finger hand grips the
+  /// same contacts; only the camera on its side moves), and the approach tilted about the
+  /// closing axis in approach_tilt_step_deg steps up to max_approach_tilt_deg (0 = never).
+  bool try_flipped_grasp = true;
+  double max_approach_tilt_deg = 30.0;
+  double approach_tilt_step_deg = 10.0;
   IkParams ik;
   MotionPlanningParams motion;
   TimingLimits timing;                   // velocity/acceleration filled from the fields above
@@ -49,6 +59,12 @@ struct GraspPlanResult
   bool success = false;
   std::string status;                  // which grasp was used, or why none was
   int grasp_index = -1;                // index into the grasp list, -1 when none
+  /// The pose the trajectory ends at: grasps[grasp_index].pose, or a variant of it with the
+  /// same closing line (flipped 180 deg about the approach axis, tilted about the closing axis).
+  Eigen::Isometry3d executed_pose = Eigen::Isometry3d::Identity();
+  bool flipped = false;
+  double tilt_rad = 0.0;
+  std::string variant;                 // empty: as given; else e.g. "flipped 180 deg about the approach axis"
   std::vector<std::string> joint_names;
   std::vector<TrajectoryPoint> points; // start ... pre-grasp ... grasp ... lifted (rest at each)
   std::size_t pregrasp_point_index = 0;  // points[] index where the arm reaches the pre-grasp
@@ -59,11 +75,34 @@ struct GraspPlanResult
   std::vector<std::string> skipped_reasons;  // "grasp 0: unreachable (no IK solution)", ...
 };
 
+/// One perception frame, as the ArmPlanner nodelet receives it (base_link).
+struct GraspSceneClouds
+{
+  const pcl::PointCloud<pcl::PointXYZ>* scene = nullptr;   // everything but the object, table included
+  const pcl::PointCloud<pcl::PointXYZ>* object = nullptr;  // the target: only the fingers may touch it
+  const pcl::PointCloud<pcl::PointXYZ>* unseen = nullptr;  // space hidden behind the object (an obstacle)
+  std::optional<Eigen::Vector4f> table_plane;              // a, b, c, d; (a, b, c) from the table up
+};
+
+/// Resets `collision`'s scene and fills it from one frame. The table's points become a box
+/// whose top is the fitted plane: voxelised, they would raise the table by up to a voxel plus
+/// the sensor noise (1-2 cm at 1 cm voxels), which is exactly the clearance a fingertip has
+/// in a low grasp. Scene points within table_band_m above the plane (and those under it, down
+/// to the box's bottom) are the table; everything else, and the unseen part, goes to the
+/// obstacle OctoMap after the self filter at `robot_state`. Returns a one-line summary.
+std::string buildGraspScene(RobotCollision& collision, const Eigen::VectorXd& robot_state,
+                            const GraspSceneClouds& clouds, const GraspExecutionParams& params);
+
 /// Plans a grasp motion against the scene held by `collision` (set the scene first:
-/// resetScene / addObstacleCloud / setTargetCloud / addBox). Grasps are poses of the grasp
-/// frame in base_link (X = approach), best first; each is tried until one is reachable and
-/// plannable within params.total_time_budget_s. Never throws on bad input: a wrong-size / NaN
-/// / in-collision start or an empty grasp list gives success = false with a status.
+/// buildGraspScene, or resetScene / addObstacleCloud / setTargetCloud / addBox). Grasps are
+/// poses of the grasp frame in base_link (X = approach), best first. First every grasp is
+/// tried as given: all its IK solutions (the goal set) whose straight approach from the
+/// pre-grasp and lift are clear (and, when none is, the pre-grasp's IK solutions joined to a
+/// clear grasp configuration by a straight line). Only when none is reachable and plannable
+/// are the grasps tried again, best first, as variants with the same closing line (see
+/// GraspExecutionParams::try_flipped_grasp); the status then names the variant. All within
+/// params.total_time_budget_s. Never throws on bad input: a wrong-size / NaN / in-collision
+/// start or an empty grasp list gives success = false with a status.
 GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::VectorXd& start,
                                 const std::vector<GraspCandidate>& grasps, const GraspExecutionParams& params);
 

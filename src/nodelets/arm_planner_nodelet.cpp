@@ -6,6 +6,7 @@
 #include "fast_grasp/grasp_execution.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/unseen_part.h"
 
 #include <nodelet/nodelet.h>
@@ -13,6 +14,8 @@
 #include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/JointState.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
 #include <trajectory_msgs/JointTrajectory.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -43,6 +46,10 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       private_nh_.param<std::string>("base_link", params_.base_link, params_.base_link);
       private_nh_.param<std::string>("tip_link", params_.tip_link, params_.tip_link);
       private_nh_.param<std::string>("planner", params_.motion.planner, params_.motion.planner);
+      // Cameras that saw the object (the grasp planner's ~sensor_frames): with several, space
+      // one of them saw is not unseen. Empty: the segmentation's single sensor origin.
+      private_nh_.param("sensor_frames", sensor_frames_, sensor_frames_);
+      private_nh_.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
       // Prefer the robot model the rest of the system uses (robot_state_publisher's).
       ArmKinematics kinematics = nh_.getParam("robot_description", robot_description) && !robot_description.empty() ?
                                      ArmKinematics::fromUrdfString(robot_description, params_.base_link, params_.tip_link) :
@@ -51,6 +58,9 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       if (!limits_problem.empty())
         throw std::runtime_error(limits_problem);
       collision_ = std::make_unique<RobotCollision>(kinematics, params_.link_padding_m);
+      // Shadow points as dense along the camera rays as the OctoMap's voxels, so the hidden
+      // space becomes a closed wall of voxels rather than a dotted one.
+      unseen_params_.step_m = params_.octomap_resolution_m;
       // Home pose by joint name (config/home_pose.yaml, shared with joint_state_publisher):
       // the start state until /joint_states arrives.
       std::map<std::string, double> home;
@@ -70,6 +80,11 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       NODELET_FATAL("Initialization failed: %s", e.what());
       status_.error(std::string("initialization failed: ") + e.what());
       return;
+    }
+    if (!sensor_frames_.empty())
+    {
+      tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+      tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
     }
     trajectory_pub_ = private_nh_.advertise<trajectory_msgs::JointTrajectory>("trajectory", 2);
     markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
@@ -171,33 +186,53 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       candidates.push_back(fromMsg(g));
 
     std::lock_guard<std::mutex> planning(planning_mutex_);  // one RobotCollision scene at a time
-    collision_->resetScene(params_.octomap_resolution_m);
-    std::ostringstream scene_note;
-    if (inputs.scene && !inputs.scene->empty())
-      scene_note << collision_->addObstacleCloud(*inputs.scene, start, params_.self_filter_padding_m)
-                 << " scene points";
-    else
-      scene_note << "no scene cloud";
+    GraspSceneClouds clouds;
+    clouds.scene = inputs.scene && !inputs.scene->empty() ? inputs.scene.get() : nullptr;
+    if (inputs.info && inputs.info->table_points > 0)
+      clouds.table_plane = Eigen::Vector4f(inputs.info->table_plane[0], inputs.info->table_plane[1],
+                                           inputs.info->table_plane[2], inputs.info->table_plane[3]);
+    UnseenPart unseen;
     if (inputs.object && !inputs.object->empty())
     {
-      collision_->setTargetCloud(*inputs.object);
+      clouds.object = inputs.object.get();
       // The space hidden behind the object is an obstacle too: the arm must never sweep
       // through what the camera could not see (thesis Ch6, Eq. 6.8).
       if (inputs.info && inputs.info->ok)
       {
-        const auto& o = inputs.info->sensor_origin;
-        const Eigen::Vector4f plane(inputs.info->table_plane[0], inputs.info->table_plane[1],
-                                    inputs.info->table_plane[2], inputs.info->table_plane[3]);
-        const UnseenPart unseen = buildUnseenPart(*inputs.object, { Eigen::Vector3f(o.x, o.y, o.z) }, unseen_params_,
-                                                  std::optional<Eigen::Vector4f>(plane));
+        const std::vector<Eigen::Vector3f> origins = sensorOrigins(*inputs.info, inputs.object->header.frame_id);
+        unseen = buildUnseenPart(*inputs.object, origins, unseen_params_, clouds.table_plane);
         if (unseen.ok())
-          scene_note << ", " << collision_->addObstacleCloud(unseen.points, start, params_.self_filter_padding_m)
-                     << " unseen-part points";
+          clouds.unseen = &unseen.points;
       }
     }
+    const std::string scene_note = buildGraspScene(*collision_, start, clouds, params_);
     result = planGraspMotion(*collision_, start, candidates, params_);
-    result.status += " (" + scene_note.str() + ")";
+    result.status += " (" + scene_note + ")";
     return result;
+  }
+
+  /// Origins of ~sensor_frames in the cloud's frame at the scene's stamp; the segmentation's
+  /// sensor origin when the list is empty or a look-up fails (logged).
+  std::vector<Eigen::Vector3f> sensorOrigins(const fast_grasp::SegmentedScene& info, const std::string& cloud_frame)
+  {
+    const auto& o = info.sensor_origin;
+    const std::vector<Eigen::Vector3f> fallback{ Eigen::Vector3f(o.x, o.y, o.z) };
+    std::vector<Eigen::Vector3f> origins;
+    for (const std::string& frame : sensor_frames_)
+    {
+      try
+      {
+        const geometry_msgs::TransformStamped t = lookupTransformWallTimeout(
+            *tf_buffer_, cloud_frame.empty() ? info.header.frame_id : cloud_frame, frame, info.header.stamp, tf_timeout_s_);
+        origins.emplace_back(t.transform.translation.x, t.transform.translation.y, t.transform.translation.z);
+      }
+      catch (const tf2::TransformException& e)
+      {
+        NODELET_WARN_THROTTLE(10.0, "unseen part from the segmentation's sensor origin only: %s", e.what());
+        return fallback;
+      }
+    }
+    return origins.empty() ? fallback : origins;
   }
 
   trajectory_msgs::JointTrajectory toTrajectoryMsg(const GraspPlanResult& result, const std_msgs::Header& header) const
@@ -221,7 +256,8 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   {
     std::ostringstream text;
     if (result.success)
-      text << "grasp " << result.grasp_index << ": " << result.points.size() << " waypoints, "
+      text << "grasp " << result.grasp_index << ": " << (result.variant.empty() ? "" : result.variant + ", ")
+           << result.points.size() << " waypoints, "
            << (result.points.empty() ? 0.0 : result.points.back().time_from_start_s) << " s, planner "
            << result.planner << ", " << result.planning_time_s * 1e3 << " ms";
     else
@@ -342,6 +378,10 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   ros::Subscriber joint_sub_, scene_info_sub_, scene_sub_, object_sub_, grasps_sub_;
   GraspExecutionParams params_;
   UnseenPartParams unseen_params_;
+  std::vector<std::string> sensor_frames_;
+  double tf_timeout_s_ = 0.2;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<RobotCollision> collision_;
   Eigen::VectorXd home_;
   std::mutex mutex_;
