@@ -249,6 +249,20 @@ def experiment_groups(logs):
     return sorted(named, key=lambda item: item[0])
 
 
+PLANNER_SPECS = "Properties of benchmarked planners:"
+
+
+def merged_setup(members):
+    """One experiment's setup text: the problem description of the first log (the others
+    describe the same space, start and goals; only their sampled statistics differ) followed by
+    every log's planner specification, instead of 23 near-copies of the problem."""
+    head, marker, _ = members[0]["setup"].partition(PLANNER_SPECS)
+    if not marker:
+        return "".join(log["setup"] for log in members)
+    specs = [log["setup"].partition(PLANNER_SPECS)[2].lstrip("\n") for log in members]
+    return head + PLANNER_SPECS + "\n" + "".join(specs)
+
+
 def write_database(logs, db_path, library_version=None):
     """Writes a fresh database (atomically replacing db_path); returns row counts."""
     directory = os.path.dirname(os.path.abspath(db_path))
@@ -272,7 +286,7 @@ def write_database(logs, db_path, library_version=None):
             values = [label, sum(log["totaltime"] for log in members), first["timelimit"], first["memorylimit"],
                       max(log["runcount"] for log in members), "%s %s" % (first["library"], version),
                       first["hostname"], first["cpuinfo"], min(log["date"] for log in members), first["seed"],
-                      "".join(log["setup"] for log in members)] + [v for _, v in parameters.values()]
+                      merged_setup(members)] + [v for _, v in parameters.values()]
             cursor.execute('INSERT INTO experiments (%s) VALUES (%s)'
                            % (",".join('"%s"' % c for c in columns), ",".join("?" * len(columns))), values)
             experiment_id = cursor.lastrowid
