@@ -407,7 +407,7 @@ struct PoseAttempt
       {
         if (handHitsEnvironment(contact))
         {
-          tally.add("the hand itself collides at the grasp pose (" + contact + ")");
+          tally.add("hand in collision at the grasp pose whatever the arm does (" + contact + ")");
           return found;
         }
         tally.add("grasp pose in collision (" + contact + ")");
@@ -575,11 +575,27 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
     result.variant = variant.flipped || variant.tilt_rad != 0.0 ? describeVariant(variant) : "";
     return true;
   };
-  auto finishPlanned = [&](std::size_t i) {
+  // One line per grasp not used; near-identical grasps (a planner's neighbours) fail alike,
+  // so a repeated reason refers back instead of being spelled out again.
+  auto collectSkipped = [&]() {
+    std::map<std::string, std::size_t> first_with;
     for (std::size_t k = 0; k < grasps.size(); ++k)
-      if (!as_given[k].empty())
-        result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": " + as_given[k] +
-                                         (variants_note[k].empty() ? "" : "; " + variants_note[k]));
+    {
+      if (as_given[k].empty())
+        continue;
+      const std::string reason = as_given[k] + (variants_note[k].empty() ? "" : "; " + variants_note[k]);
+      const auto seen = first_with.find(reason);
+      if (seen != first_with.end())
+        result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": as grasp " + std::to_string(seen->second));
+      else
+      {
+        first_with[reason] = k;
+        result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": " + reason);
+      }
+    }
+  };
+  auto finishPlanned = [&](std::size_t i) {
+    collectSkipped();
     return finish("grasp " + std::to_string(i) + (result.variant.empty() ? "" : " (" + result.variant + ")") +
                   " planned with " + params.motion.planner + " in " + std::to_string(clock.elapsedSeconds()) + " s, " +
                   std::to_string(result.points.size()) + " trajectory points, duration " +
@@ -643,9 +659,7 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
     variants_note[i] = "flipped/tilted variants: " + std::to_string(tried) + " of " + std::to_string(variants.size()) +
                        " tried" + (tally.empty() ? "" : " (" + tally.summary() + ")");
   }
-  for (std::size_t k = 0; k < grasps.size(); ++k)
-    result.skipped_reasons.push_back("grasp " + std::to_string(k) + ": " + as_given[k] +
-                                     (variants_note[k].empty() ? "" : "; " + variants_note[k]));
+  collectSkipped();
   return finish("no grasp reachable and plannable (" + std::to_string(result.skipped_reasons.size()) + " skipped)");
 }
 

@@ -13,6 +13,7 @@
 #include <pcl_conversions/pcl_conversions.h>
 #include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <geometry_msgs/PoseStamped.h>
 #include <sensor_msgs/JointState.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -87,6 +88,9 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
     }
     trajectory_pub_ = private_nh_.advertise<trajectory_msgs::JointTrajectory>("trajectory", 2);
+    // Where the trajectory's grasp point puts the grasp frame: the grasp as given or the
+    // flipped / tilted variant the status names. Published just before each trajectory.
+    executed_grasp_pub_ = private_nh_.advertise<geometry_msgs::PoseStamped>("executed_grasp", 2);
     markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
     plan_service_ = private_nh_.advertiseService("plan", &ArmPlannerNodelet::planService, this);
     joint_sub_ = nh_.subscribe("joint_states", 5, &ArmPlannerNodelet::jointCallback, this);
@@ -252,6 +256,22 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     return traj;
   }
 
+  void publishExecutedGrasp(const GraspPlanResult& result, const std_msgs::Header& header)
+  {
+    geometry_msgs::PoseStamped pose;
+    pose.header = header;
+    const Eigen::Vector3d t = result.executed_pose.translation();
+    const Eigen::Quaterniond q(result.executed_pose.linear());
+    pose.pose.position.x = t.x();
+    pose.pose.position.y = t.y();
+    pose.pose.position.z = t.z();
+    pose.pose.orientation.x = q.x();
+    pose.pose.orientation.y = q.y();
+    pose.pose.orientation.z = q.z();
+    pose.pose.orientation.w = q.w();
+    executed_grasp_pub_.publish(pose);
+  }
+
   std::string summary(const GraspPlanResult& result) const
   {
     std::ostringstream text;
@@ -279,6 +299,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       std_msgs::Header header = grasps->header;
       if (result.success)
       {
+        publishExecutedGrasp(result, header);
         trajectory_pub_.publish(toTrajectoryMsg(result, header));
         status_.ok(summary(result));
       }
@@ -313,6 +334,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       if (result.success)
       {
         res.trajectory = toTrajectoryMsg(result, req.grasps.header);
+        publishExecutedGrasp(result, req.grasps.header);
         trajectory_pub_.publish(res.trajectory);
       }
     }
@@ -373,7 +395,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
 
   ros::NodeHandle nh_, private_nh_;
   NodeletStatus status_;
-  ros::Publisher trajectory_pub_, markers_pub_;
+  ros::Publisher trajectory_pub_, executed_grasp_pub_, markers_pub_;
   ros::ServiceServer plan_service_;
   ros::Subscriber joint_sub_, scene_info_sub_, scene_sub_, object_sub_, grasps_sub_;
   GraspExecutionParams params_;
