@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -57,6 +58,7 @@ struct RejectionCounts
   std::size_t force_balance = 0;      // step 8
   std::size_t wrong_side = 0;         // approach would come from behind the sensor's view
   std::size_t table = 0;              // the gripper body would reach into the table
+  std::size_t hand = 0;               // the real hand (fingers + palm boxes) does not fit
 };
 
 /// Gripper constants of Eq. 6.1 in float, computed once per plan. The collision volume is
@@ -117,6 +119,18 @@ struct CShapeGeometry
   }
 };
 
+/// Shallowest C-centre depth relative to the normal's point (<= 0): a centre in front of the
+/// point leaves it in the mouth, min_fingertip_overlap_m behind the fingertips.
+float fingertipMinDepth(const GripperModel& gripper, const CShapeParams& params)
+{
+  const double r1 = gripper.cshape_r1_m;
+  const double r2 = gripper.cshape_r2_m;
+  const double tip_reach = std::sqrt(std::max(0.0, r2 * r2 - r1 * r1));
+  if (params.min_fingertip_overlap_m < 0.0)
+    return 0.0f;
+  return static_cast<float>(std::min(0.0, params.min_fingertip_overlap_m - tip_reach));
+}
+
 /// The table plane and the gripper body checked against it (CShapeParams::check_table_clearance):
 /// the nominal C of Eq. 6.1 and the hand box behind it. Both are convex-hull-exact: the lowest
 /// point of a shape along a direction is a vertex of its convex hull, so it is computed in
@@ -133,6 +147,8 @@ struct TableCheck
   float tip_reach = 0.0f;
   float palm_thickness = 0.0f;
   float palm_half_across = 0.0f;
+  /// Shallowest centre depth a placement may take (<= 0; see CShapeParams::min_fingertip_overlap_m).
+  float min_depth = 0.0f;
 
   TableCheck() = default;
   TableCheck(const ObjectView& view, const GripperModel& gripper, const CShapeParams& params)
@@ -144,7 +160,8 @@ struct TableCheck
     , half_w(static_cast<float>(0.5 * gripper.cshape_w_m))
     , tip_reach(std::sqrt(std::max(0.0f, r2 * r2 - r1 * r1)))
     , palm_thickness(static_cast<float>(gripper.palm_thickness_m))
-    , palm_half_across(static_cast<float>(std::max(gripper.finger_width_m, 0.5 * gripper.cshape_w_m)))
+    , palm_half_across(static_cast<float>(std::max(0.5 * gripper.palmWidth(), 0.5 * gripper.cshape_w_m)))
+    , min_depth(fingertipMinDepth(gripper, params))
   {
     if (!active)
       return;
@@ -176,9 +193,10 @@ struct TableCheck
     return normal.dot(centre) + offset + std::min(c_low, palm_low);
   }
 
-  /// The deepest centre depth along `approach` from `point` (depths in [0, depth_bound])
-  /// whose body keeps the clearance: +inf when any depth does (or deeper is higher, left to
-  /// the final check), negative when none does. The lowest point moves linearly with depth.
+  /// The deepest centre depth along `approach` from `point` (depths in [min_depth,
+  /// depth_bound]) whose body keeps the clearance: +inf when any depth does (or deeper is
+  /// higher, left to the final check), below min_depth when none does. The lowest point moves
+  /// linearly with depth.
   float maxDepth(const Eigen::Vector3f& point, const Eigen::Vector3f& approach, const Eigen::Vector3f& closing,
                  const Eigen::Vector3f& across, float depth_bound) const
   {
@@ -187,13 +205,16 @@ struct TableCheck
       return kInf;
     const float low_0 = lowestHeight(point, approach, closing, across);
     const float slope = normal.dot(approach);
+    // 10 um inside the limit, so clear() at exactly this depth is not lost to float rounding
+    // (a C stopped short by the table sits exactly at the limit).
+    constexpr float kMargin = 1e-5f;
     if (slope < -1e-6f)
-      return (low_0 - clearance) / -slope;
-    return std::max(low_0, low_0 + slope * depth_bound) >= clearance ? kInf : -1.0f;
+      return (low_0 - clearance - kMargin) / -slope;
+    return std::max(low_0 + slope * min_depth, low_0 + slope * depth_bound) >= clearance ? kInf : -kInf;
   }
 
   /// False when no orientation of the C about `approach` (axes u, v of its normal plane) at
-  /// any depth in [0, depth_bound] keeps the clearance, so the normal can be skipped before
+  /// any depth in [min_depth, depth_bound] keeps the clearance, so the normal can be skipped before
   /// its neighbourhood search. Sampled every 5 deg over the half turn (the body is symmetric
   /// under a half turn); between samples the body rotates by at most 2.5 deg, moving its points
   /// by at most their distance from the approach axis, sqrt(r2^2 + across^2), times that angle.
@@ -211,7 +232,7 @@ struct TableCheck
       const float cos_t = std::cos(k * step);
       const float sin_t = std::sin(k * step);
       const float low_0 = lowestHeight(point, approach, -sin_t * u + cos_t * v, cos_t * u + sin_t * v);
-      if (std::max(low_0, low_0 + slope * depth_bound) + margin >= clearance)
+      if (std::max(low_0 + slope * min_depth, low_0 + slope * depth_bound) + margin >= clearance)
         return true;
     }
     return false;
@@ -241,6 +262,8 @@ struct SearchContext
   std::vector<Eigen::Vector3f> sensors;
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
   TableCheck table;
+  /// The real hand's volume against the seen points and the unseen part (final check).
+  std::optional<GripperVolumeCheck> hand;
   /// Unit gravity for the from-above score term (zero when the view's is unusable).
   Eigen::Vector3f gravity = Eigen::Vector3f::Zero();
   RejectionCounts rejected;
@@ -440,10 +463,18 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
     placement.blocked = true;
     return placement;
   }
-  // Every placement lies at a depth in [0, centre_s]. A point beside the mouth
+  if (max_s < ctx.table.min_depth)
+  {
+    placement.below_table = true;
+    return placement;
+  }
+  // Every placement lies at a depth in [lowest_s, centre_s]: from 0 (the normal's point at
+  // the C centre), or up to -min_depth in front of it when the table stops the C short (a
+  // fingertip grasp: the point stays in the mouth). A point beside the mouth
   // (r1 < |y| <= r2) is inside a finger for all depths within sqrt(r2^2 - y^2) of its own;
-  // if that covers [0, centre_s], no placement is free and the closing-region passes below
-  // can be skipped (exact; most configurations on objects wider than the C end here).
+  // if that covers [lowest_s, centre_s], no placement is free and the closing-region passes
+  // below can be skipped (exact; most configurations on objects wider than the C end here).
+  const float lowest_s = std::max(ctx.table.min_depth, std::min(0.0f, max_s));
   placement.grasp_s = centre_s;
   bool unseen_always = false;
   for (const SlabPoint& q : slab)
@@ -452,7 +483,7 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
     if (y <= c.collision_r1 || y > c.collision_r2)
       continue;
     const float reach = std::sqrt(c.collision_r2_sq - y * y);
-    if (q.s - reach <= 0.0f && q.s + reach >= centre_s)
+    if (q.s - reach <= lowest_s && q.s + reach >= centre_s)
     {
       if (q.index >= 0)
       {
@@ -490,10 +521,10 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
       if (q.index >= 0 && std::abs(q.y) < radius)
         circle_s = std::min(circle_s, q.s + std::sqrt(radius * radius - q.y * q.y));
     const float contact_mean_s = 0.5f * (placement.contact_a.z() + placement.contact_b.z());
-    // Never shallower than the normal's own point: the searched neighbourhood assumes it.
+    // Never shallower than the normal's own point unless the table demands it (below).
     preferred_s = std::min(centre_s, std::max({ contact_mean_s, circle_s, 0.0f }));
   }
-  preferred_s = std::min(preferred_s, max_s);
+  preferred_s = std::min(preferred_s, max_s);  // >= lowest_s, checked above
   if (preferred_s < centre_s)
   {
     if (collide(c, slab, preferred_s) == 0)
@@ -536,7 +567,8 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
 
   // Only the cylinder around the approach axis that some orientation can reach matters.
   const float lateral_sq = c.collision_r2_sq + c.collision_half_w * c.collision_half_w;
-  const float depth_low = -c.collision_r2;
+  // A fingertip placement's centre may stand up to -min_depth in front of the point.
+  const float depth_low = ctx.table.min_depth - c.collision_r2;
   const float depth_high = c.r1 + c.collision_tip_reach;
   auto toLocal = [&](const Eigen::Vector3f& point, int index, std::vector<LocalPoint>& out) {
     const Eigen::Vector3f d = point - p;
@@ -605,10 +637,10 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
     const float sin_t = static_cast<float>(std::sin(theta));
     const Eigen::Vector3f across = cos_t * u + sin_t * v;
     const Eigen::Vector3f closing_axis = -sin_t * u + cos_t * v;
-    // Every placement has its centre depth in [0, r2] (Eq. 6.9 with the normal's own point
-    // gives s <= r1 + clearance), so a negative max_s means none keeps the table clearance.
+    // Every placement has its centre depth in [min_depth, r2] (Eq. 6.9 with the normal's own
+    // point gives s <= r1 + clearance), so max_s < min_depth means none keeps the clearance.
     const float max_s = ctx.table.maxDepth(p, approach, closing_axis, across, c.collision_r2);
-    if (max_s < 0.0f)
+    if (max_s < ctx.table.min_depth)
     {
       ++ctx.rejected.table;
       continue;
@@ -770,6 +802,19 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
       ++ctx.rejected.force_balance;
       continue;
     }
+    if (ctx.hand)
+    {
+      // The C of Eq. 6.1 has no flat palm: fit the real hand, backing it out if its palm
+      // would enter the object; the backed-off C body must still clear the table.
+      const GripperFit fitted = ctx.hand->fit(grasp.pose, grasp.width_m);
+      const Eigen::Vector3f fitted_centre = fitted.pose.translation().cast<float>();
+      if (!fitted.ok || !ctx.table.clear(fitted_centre, approach, closing, axis_x))
+      {
+        ++ctx.rejected.hand;
+        continue;
+      }
+      grasp.pose = fitted.pose;
+    }
     best.passed = true;
     best.grasp = grasp;
     break;  // the best-ranked orientation that passes at full resolution
@@ -785,7 +830,8 @@ std::string describe(const RejectionCounts& r)
       << " narrower than the min opening, " << r.blocked << " blocked in front, " << r.few_side_points
       << " without two fittable sides, " << r.variance << " above the variance threshold, " << r.force_balance
       << " above the force-balance threshold, " << r.wrong_side << " approaching from behind the sensor, " << r.table
-      << " reaching into the table (gripper body below the table plane + clearance)";
+      << " reaching into the table (gripper body below the table plane + clearance), " << r.hand
+      << " where the real hand (finger and palm boxes) does not fit";
   return out.str();
 }
 }  // namespace
@@ -821,6 +867,7 @@ std::string CShapeParams::validate() const
     why << "from_above_weight_rad must be finite; ";
   if (!(coarse_screen_factor >= 0.0))
     why << "coarse_screen_factor must be >= 0 (0 = no coarse stability screen); ";
+  why << gripper_fit.validate();
   if (!(min_thickness_m >= 0.0))
     why << "min_thickness_m must be >= 0; ";
   if (!(unseen.extension_m >= 0.0) || unseen.step_m < 0.0 || unseen.grid_cell_m < 0.0 || unseen.min_grid_cell_m < 0.0)
@@ -963,6 +1010,12 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
   }
   ctx.first_unseen = ctx.obstacles->size();
   *ctx.obstacles += unseen_points;
+  if (params_.gripper_fit.enabled)
+  {
+    ctx.hand.emplace(gripper, params_.gripper_fit);
+    ctx.hand->addSeen(*ctx.seen);
+    ctx.hand->addUnseen(unseen_points);
+  }
 
   // Step 3: down-sampled normals, one per voxel, each the normal of a real input point (the
   // thesis takes the point nearest to the voxel centroid through a k-d tree; PCL's

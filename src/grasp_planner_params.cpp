@@ -87,6 +87,15 @@ public:
 
   std::string where(const char* key) const { return name_ + "/" + key; }
 
+  /// A nested map read by another SectionReader.
+  YAML::Node child(const char* key)
+  {
+    known_.insert(key);
+    if (!section_ || section_.IsNull() || !section_.IsMap())
+      return YAML::Node();
+    return section_[key];
+  }
+
 private:
   template <typename T>
   static const char* typeName()
@@ -105,6 +114,21 @@ private:
   const std::string name_;
   std::set<std::string> known_;
 };
+
+/// The `gripper_fit:` map of either planner (GripperFitParams).
+GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
+{
+  GripperFitParams p;
+  SectionReader reader(parent.child("gripper_fit"), std::string(planner) + "/gripper_fit");
+  reader.read("enabled", p.enabled);
+  reader.readNonNegative("approach_opening_m", p.approach_opening_m);
+  reader.readNonNegative("palm_clearance_m", p.palm_clearance_m);
+  reader.readNonNegative("max_backoff_m", p.max_backoff_m);
+  reader.readCount("min_points_between_fingers", p.min_points_between_fingers, 1);
+  reader.readNonNegative("closing_margin_m", p.closing_margin_m);
+  reader.rejectUnknownKeys();
+  return p;
+}
 }  // namespace
 
 PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section)
@@ -125,6 +149,7 @@ PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section)
   reader.read("two_camera_mode", p.two_camera_mode);
   reader.readPositive("virtual_view_step_rad", p.virtual_view_step_rad);
   reader.readCount("max_grasps", p.max_grasps, 1);
+  p.gripper_fit = gripperFitFromYaml(reader, "principal_axis");
   reader.rejectUnknownKeys();
   return p;
 }
@@ -169,6 +194,7 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
   reader.read("check_table_clearance", p.check_table_clearance);
   reader.read("table_clearance_m", p.table_clearance_m);
+  reader.read("min_fingertip_overlap_m", p.min_fingertip_overlap_m);
   reader.read("from_above_weight_rad", p.from_above_weight_rad);
   reader.read("coarse_screen_factor", p.coarse_screen_factor);
   reader.read("variance_weight_rad_per_m", p.variance_weight_rad_per_m);
@@ -177,6 +203,7 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   reader.readCount("min_points", p.min_points, 1);
   reader.read("min_thickness_m", p.min_thickness_m);
   reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  p.gripper_fit = gripperFitFromYaml(reader, "cshape");
   reader.rejectUnknownKeys();
   // The planner owns the rules on its parameters; apply them here so a bad file fails at load.
   const std::string problem = p.validate();

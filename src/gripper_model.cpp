@@ -24,6 +24,8 @@ std::string GripperModel::validate() const
   positive("cshape_r1_m", cshape_r1_m);
   positive("cshape_r2_m", cshape_r2_m);
   positive("cshape_w_m", cshape_w_m);
+  if (!(std::isfinite(palm_width_m) && palm_width_m >= 0.0))
+    why << "palm_width_m must be >= 0 (0 = twice the finger width); ";
   if (!(std::isfinite(min_opening_m) && min_opening_m >= 0.0 && min_opening_m < max_opening_m))
     why << "min_opening_m must lie in [0, max_opening_m); ";
   if (cshape_r2_m <= cshape_r1_m)
@@ -67,6 +69,7 @@ GripperModel loadGripperModel(const std::string& yaml_path)
   read("finger_depth_m", model.finger_depth_m, true);
   read("hand_depth_m", model.hand_depth_m, true);
   read("palm_thickness_m", model.palm_thickness_m, false);
+  read("palm_width_m", model.palm_width_m, false);
   read("cshape_r1_m", model.cshape_r1_m, true);
   read("cshape_r2_m", model.cshape_r2_m, true);
   read("cshape_w_m", model.cshape_w_m, true);

@@ -516,6 +516,9 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
   const std::string gripper_problem = gripper.validate();
   if (!gripper_problem.empty())
     return finish(GraspResult::fail(GraspFailure::InvalidParameters, "principal_axis: gripper: " + gripper_problem));
+  const std::string fit_params_problem = p.gripper_fit.validate();
+  if (!fit_params_problem.empty())
+    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "principal_axis: " + fit_params_problem));
   if (!view.cloud)
     return finish(GraspResult::fail(GraspFailure::EmptyInput, "principal_axis: null cloud"));
 
@@ -558,6 +561,19 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
 
   GraspResult result;
   std::vector<Eigen::Vector3f> scratch;
+  // The real hand's volume (gripper_volume.h) at the stable grasps, best first, until
+  // max_grasps fit (the rest are cut): built only when there is something to check.
+  auto fitGripper = [&](std::vector<GraspCandidate>& grasps, std::string& why) {
+    if (grasps.empty() || !p.gripper_fit.enabled)
+    {
+      if (grasps.size() > p.max_grasps)
+        grasps.resize(p.max_grasps);
+      return;
+    }
+    GripperVolumeCheck check(gripper, p.gripper_fit);
+    check.addSeen(*view.cloud);
+    check.filter(grasps, &why, p.max_grasps);
+  };
   const bool two_cameras = p.two_camera_mode && view.sensor_origins.size() >= 2 && view.sensor_origins[1].allFinite();
 
   auto fillDrawing = [&](const ViewEvaluation& evaluation) {
@@ -609,8 +625,14 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     }
     sortGraspsBestFirst(result.grasps);
     sortGraspsBestFirst(result.candidates);
-    if (result.grasps.size() > p.max_grasps)
-      result.grasps.resize(p.max_grasps);
+    std::string fit_problem;
+    const std::size_t stable = result.grasps.size();
+    fitGripper(result.grasps, fit_problem);
+    if (stable > 0 && result.grasps.empty())
+      return finish(GraspResult::fail(GraspFailure::NoStableGrasp,
+                                      "principal_axis: " + std::to_string(stable) +
+                                          " grasps pass XOY and XOZ but the hand does not fit at any (first: " +
+                                          fit_problem + ")"));
     if (!result.grasps.empty())
     {
       result.message = "principal_axis: " + std::to_string(result.grasps.size()) + " grasps, best XOY " +
@@ -770,8 +792,14 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
   }
   result.candidates_evaluated = evaluated;
   sortGraspsBestFirst(result.grasps);
-  if (result.grasps.size() > p.max_grasps)
-    result.grasps.resize(p.max_grasps);
+  std::string fit_problem;
+  const std::size_t stable = result.grasps.size();
+  fitGripper(result.grasps, fit_problem);
+  if (stable > 0 && result.grasps.empty())
+    return finish(GraspResult::fail(GraspFailure::NoStableGrasp,
+                                    "principal_axis (two cameras): " + std::to_string(stable) +
+                                        " grasps pass XOY and XOZ but the hand does not fit at any (first: " +
+                                        fit_problem + ")"));
   ViewEvaluation& drawn = result.grasps.empty() ? first_view : chosen_view;
   if (have_first)
   {

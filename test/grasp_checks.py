@@ -37,11 +37,12 @@ def gripper_boxes(gripper, opening_m):
     t = gripper["finger_thickness_m"]
     w = gripper["finger_width_m"]
     palm = gripper.get("palm_thickness_m", 0.03)
+    palm_half_width = gripper.get("palm_width_m", 0.0) / 2 or w
     y0 = opening_m / 2
     return [
         (np.array([-d / 2, y0, -w / 2]), np.array([d / 2, y0 + t, w / 2])),
         (np.array([-d / 2, -y0 - t, -w / 2]), np.array([d / 2, -y0, w / 2])),
-        (np.array([-d / 2 - palm, -y0 - t, -w]), np.array([-d / 2, y0 + t, w])),
+        (np.array([-d / 2 - palm, -y0 - t, -palm_half_width]), np.array([-d / 2, y0 + t, palm_half_width])),
     ]
 
 

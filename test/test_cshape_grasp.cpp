@@ -226,11 +226,20 @@ TEST(CShapeGrasp, CylinderOnATableIsGraspedAcrossItsDiameterThroughTheAxis)
   const GraspResult result = CShapeGraspPlanner(exhaustiveParams()).plan(view, gripper);
   expectValidGrasps(result, view, gripper);
   const GraspCandidate& best = result.grasps.front();
-  // Closing horizontal, across the axis: the closing line passes within a few mm of the
-  // vertical axis through the origin (distance of two lines: |(p) . (d x z)| / |d x z|).
+  // Closing horizontal, across the axis: the closing line (through the contacts) passes within
+  // a few mm of the vertical axis through the origin (distance of two lines:
+  // |(p) . (d x z)| / |d x z|).
+  // The real hand (gripper_volume.h): the approach is a surface normal of the side,
+  // horizontal; the Robotiq's palm face stands finger_depth / 2 = 0.02 m behind the grasp
+  // origin and the cylinder's front R = 0.03 m in front of the axis, so the hand is backed
+  // out by R + palm_clearance - 0.02 = 0.013 m and the closing line lies that far ahead of
+  // the published origin, still between the fingers.
   EXPECT_LT(std::abs(best.binormal().z()), 0.1);
-  const Eigen::Vector3d common = best.binormal().cross(Eigen::Vector3d::UnitZ());
-  EXPECT_LT(std::abs(best.position().dot(common.normalized())), 0.004) << best.position().transpose();
+  EXPECT_LT(std::abs(best.approach().z()), 0.05);
+  const double expected_backoff = radius + CShapeParams().gripper_fit.palm_clearance_m - 0.5 * gripper.finger_depth_m;
+  const Eigen::Vector3d closing_centre = best.position() + expected_backoff * best.approach();
+  const Eigen::Vector3d common = best.binormal().cross(Eigen::Vector3d::UnitZ()).normalized();
+  EXPECT_LT(std::abs(closing_centre.dot(common)), 0.004) << closing_centre.transpose();
   EXPECT_NEAR(best.width_m, 2.0 * radius, 0.004);
   EXPECT_LT(best.force_balance_rad, 0.15);
   // Nothing of the unseen part lies below the table.
@@ -372,7 +381,7 @@ double lowestBodyHeight(const GraspCandidate& grasp, const GripperModel& gripper
         if (insideCShape(pose, gripper, q.cast<float>()))
           lowest = std::min(lowest, q.z());
       }
-  const double palm_across = std::max(gripper.finger_width_m, half_w);
+  const double palm_across = std::max(0.5 * gripper.palmWidth(), half_w);
   for (double depth : { -r2, -r2 - gripper.palm_thickness_m })
     for (double y : { -r2, r2 })
       for (double x : { -palm_across, palm_across })
@@ -420,6 +429,49 @@ TEST(CShapeGrasp, GripperBodyStaysAboveTheTable)
   ASSERT_TRUE(scaled.ok()) << scaled.message;
   for (const GraspCandidate& g : scaled.grasps)
     EXPECT_GE(lowestBodyHeight(g, gripper), params.table_clearance_m);
+}
+
+TEST(CShapeGrasp, LowBarIsGraspedWithTheFingertipsAboveTheTable)
+{
+  // A 3 x 3 x 25 cm bar lying on the table (a hammer handle), seen from 60 degrees above.
+  // The Lacquey's fingertips reach sqrt(r2^2 - r1^2) = 0.0516 m in front of the C centre, so
+  // a C whose centre sits on the bar (at most 3 cm high) puts them into the table: the
+  // thesis's placement finds nothing. Stopping the C short, its centre at least
+  // 0.0516 + 0.01 m above the table, still leaves the top 2 cm of the bar in its mouth.
+  const GripperModel gripper = loadGripper("lacquey_fetch");
+  const Eigen::Vector3d centre(0.0, 0.0, 0.015);
+  const Eigen::Vector3d viewpoint = centre + 0.6 * Eigen::Vector3d(0.0, 0.5, std::sqrt(0.75));
+  const CloudNormal::Ptr cloud =
+      renderView(makeBox(centre, Eigen::Vector3d(0.25, 0.03, 0.03)), ViewParams{ viewpoint });
+  ObjectView view = makeObjectView(cloud, viewpoint);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+
+  CShapeParams thesis_only = exhaustiveParams();
+  thesis_only.min_fingertip_overlap_m = -1.0;
+  const GraspResult none = CShapeGraspPlanner(thesis_only).plan(view, gripper);
+  EXPECT_FALSE(none.ok());
+  EXPECT_NE(none.message.find("table"), std::string::npos) << none.message;
+
+  CShapeParams params = exhaustiveParams();
+  const GraspResult result = CShapeGraspPlanner(params).plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  const double tip_reach = std::sqrt(std::pow(gripper.cshape_r2_m, 2) - std::pow(gripper.cshape_r1_m, 2));
+  for (std::size_t i = 0; i < result.grasps.size(); ++i)
+  {
+    const GraspCandidate& g = result.grasps[i];
+    SCOPED_TRACE("grasp " + std::to_string(i));
+    EXPECT_GE(lowestBodyHeight(g, gripper), params.table_clearance_m - 1e-6);
+    EXPECT_GE(g.position().z() - tip_reach * -g.approach().z(), params.table_clearance_m - 1e-6);
+    EXPECT_GT(pointsBetweenFingers(g, gripper, *view.cloud), 0u);
+    EXPECT_EQ(countInsideCShape(cshapePoseOf(g), gripper, toXyz(*view.cloud)), 0u);
+    EXPECT_LE(g.width_m, gripper.max_opening_m);
+  }
+  // The best closes across the bar (its 3 cm width), from above.
+  const GraspCandidate& best = result.grasps.front();
+  EXPECT_LT(std::abs(best.binormal().x()), 0.2) << best.binormal().transpose();
+  EXPECT_NEAR(best.width_m, 0.03, 0.004);
+  EXPECT_LT(best.approach().z(), -0.7) << best.approach().transpose();
 }
 
 TEST(CShapeGrasp, FromAboveWeightPrefersApproachesAlongGravity)

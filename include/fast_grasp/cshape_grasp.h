@@ -11,6 +11,7 @@
 
 #include "fast_grasp/grasp_types.h"
 #include "fast_grasp/gripper_model.h"
+#include "fast_grasp/gripper_volume.h"
 #include "fast_grasp/unseen_part.h"
 
 #include <Eigen/Core>
@@ -46,7 +47,10 @@ struct CShapeParams
   /// Step 7: largest allowed sum of the distances of the side points to their fitted lines.
   /// Side points are the extreme points of `side_bins` slices across the finger width, so the
   /// sum is over at most 2 * side_bins points and does not grow with the cloud density.
-  double variance_threshold_m = 0.02;
+  /// The sum is over <= 16 points: depth noise alone (Nguyen's sigma_z ~1.3 mm at 0.6 m, mean
+  /// absolute deviation ~1 mm per point) already gives ~0.016 m, so 0.02 left almost no room
+  /// for real surface shape; 0.03 allows ~2 mm per point.
+  double variance_threshold_m = 0.03;
   int side_bins = 8;
   /// A side needs points in at least this many slices to fit its line.
   int min_side_bins = 3;
@@ -82,11 +86,17 @@ struct CShapeParams
   /// closer than table_clearance_m to the table (or goes below it). The body is the nominal
   /// C-shape of Eq. 6.1 plus the hand box behind it: palm_thickness_m deep along -approach
   /// behind the back of the C (depth -r2 - palm_thickness .. -r2 from the C centre), 2 r2
-  /// along the closing direction and 2 max(finger_width, w / 2) across the C plane. Without
+  /// along the closing direction and max(palm_width, w) across the C plane. Without
   /// it the planner returns low sideways C-shapes whose palm is inside the table, which the
   /// arm planner then rejects (octomap / palm link collision).
   bool check_table_clearance = true;
   double table_clearance_m = 0.01;
+  /// Objects lower than the C's reach below its centre (a hammer handle, a pan's rim) cannot
+  /// take the C centre at the normal's point without the fingertips entering the table. The C
+  /// may then stop short, its centre in front of the point, as long as the point stays at
+  /// least this far inside the mouth (behind the fingertips): a fingertip grasp. Negative =
+  /// never (the thesis's placement only).
+  double min_fingertip_overlap_m = 0.015;
   /// Score bonus from_above_weight * (approach . gravity): approaches from above (+) are
   /// easier for an arm standing on the same table, from below (-) harder. Small next to sigma,
   /// which stays the main criterion.
@@ -110,6 +120,11 @@ struct CShapeParams
   double min_thickness_m = 2e-4;
   /// At most this many evaluated candidates are kept in GraspResult::candidates.
   std::size_t max_recorded_candidates = 200;
+  /// Final check of each passing orientation with the real hand's volume (gripper_volume.h)
+  /// against the seen points and the unseen part: the C of Eq. 6.1 has no flat palm, so a
+  /// C that envelops the object deeply can put the palm into it. The palm is backed out
+  /// when it can be; otherwise the next orientation is tried.
+  GripperFitParams gripper_fit;
 
   /// Empty when usable, else why not.
   std::string validate() const;

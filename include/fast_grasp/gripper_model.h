@@ -18,10 +18,14 @@ struct GripperModel
   double finger_depth_m = 0.04;   // usable finger length along the approach
   double hand_depth_m = 0.06;     // palm-to-fingertip depth of the closing region
   double palm_thickness_m = 0.03; // palm size along the approach behind the fingers
+  double palm_width_m = 0.0;      // palm size across the closing plane; 0 = 2 * finger_width_m
   double cshape_r1_m = 0.045;     // Eq. 6.1 inner radius (half the opening region)
   double cshape_r2_m = 0.06;      // Eq. 6.1 outer radius (inner radius + finger thickness)
   double cshape_w_m = 0.02;       // Eq. 6.1 width of the C across its plane
   bool underactuated = false;     // the fingers wrap (Lacquey Fetch) rather than stay parallel
+
+  /// Palm size across the closing plane (palm_width_m, or twice the finger width when unset).
+  double palmWidth() const { return palm_width_m > 0.0 ? palm_width_m : 2.0 * finger_width_m; }
 
   /// Returns an empty string when the model is usable, else why not.
   std::string validate() const;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "fast_grasp/grasp_types.h"
+#include "fast_grasp/gripper_volume.h"
 #include "fast_grasp/gripper_model.h"
 
 #include <Eigen/Core>
@@ -48,6 +49,9 @@ struct PrincipalAxisParams
   double virtual_view_step_rad = 0.1745329;  // 10 degrees
   /// At most this many grasps are returned (best first).
   std::size_t max_grasps = 20;
+  /// Final check with the real hand's volume (gripper_volume.h): palm backed out of the
+  /// object, fingers free, object between them.
+  GripperFitParams gripper_fit;
 };
 
 /// One sweep line y = y_min + n * delta_y (Eq. 3.4) in the object frame and its left-most and

@@ -46,6 +46,7 @@ const char* const kUsage =
     "                   | --pcd FILE --viewpoint x,y,z [--table a,b,c,d] [--already-segmented]\n"
     "                     [--algorithm principal_axis|cshape] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
+    "                     [--save-object FILE.pcd]\n"
     "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
     "  --topic T            cloud topic (default /camera/depth_registered/points; without --topic\n"
     "                       a bag that also has /head_camera/depth_registered/points is fused)\n"
@@ -59,7 +60,8 @@ const char* const kUsage =
     "  --params FILE        planner parameters (default config/grasp_planners.yaml)\n"
     "  --format F           csv (default) or json\n"
     "  --output FILE        write there instead of stdout\n"
-    "  --max-grasps N       write at most N grasps (default: all the planner returns)\n";
+    "  --max-grasps N       write at most N grasps (default: all the planner returns)\n"
+    "  --save-object FILE   also save the segmented object (base_link, with normals) as PCD\n";
 
 struct Options
 {
@@ -75,6 +77,7 @@ struct Options
   std::string params_path = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml";
   std::string format = "csv";
   std::string output_path;  // empty: stdout
+  std::string object_pcd_path;  // empty: the segmented object is not saved
   std::size_t max_grasps = 0;  // 0: all
 };
 
@@ -175,6 +178,8 @@ Options parseOptions(int argc, char** argv)
       options.format = value;
     else if (flag == "--output")
       options.output_path = value;
+    else if (flag == "--save-object")
+      options.object_pcd_path = value;
     else if (flag == "--max-grasps")
       options.max_grasps = static_cast<std::size_t>(parseInteger(flag, value, 1));
     else
@@ -569,6 +574,10 @@ int run(const Options& options)
     if (prepared.view.has_table_plane)
       report.table_plane = prepared.view.table_plane;
     report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
+    // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
+    if (!options.object_pcd_path.empty() &&
+        pcl::io::savePCDFileBinary(options.object_pcd_path, *prepared.view.cloud) != 0)
+      return finishFailure({ "output", "OutputError", "cannot write " + options.object_pcd_path });
 
     const Stopwatch planning_watch;
     GraspResult result = planner->plan(prepared.view, gripper);

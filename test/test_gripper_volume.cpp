@@ -1,0 +1,155 @@
+// The real hand's volume (gripper_volume.h): boxes from the gripper YAML, and the final check
+// every planner applies (back the palm out of the object, fingers free, object in between),
+// against hand-computed coordinates.
+#include "fast_grasp/gripper_volume.h"
+
+#include <gtest/gtest.h>
+
+using namespace fast_grasp;
+
+namespace
+{
+GripperModel lacquey()
+{
+  return loadGripperModel(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/lacquey_fetch.yaml");
+}
+
+/// Points on a 2 mm grid filling the axis-aligned box [lo, hi] (grasp coordinates = base).
+CloudXYZ solidBox(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi)
+{
+  CloudXYZ cloud;
+  for (float x = lo.x(); x <= hi.x() + 1e-6f; x += 0.002f)
+    for (float y = lo.y(); y <= hi.y() + 1e-6f; y += 0.002f)
+      for (float z = lo.z(); z <= hi.z() + 1e-6f; z += 0.002f)
+        cloud.push_back(PointXYZ(x, y, z));
+  return cloud;
+}
+
+void expectBox(const GripperBox& box, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi)
+{
+  EXPECT_TRUE(box.min.isApprox(lo, 1e-6f)) << box.min.transpose() << " vs " << lo.transpose();
+  EXPECT_TRUE(box.max.isApprox(hi, 1e-6f)) << box.max.transpose() << " vs " << hi.transpose();
+}
+}  // namespace
+
+TEST(GripperVolume, BoxesMatchTheLacqueyDrawing)
+{
+  // lacquey_fetch.yaml: finger depth 0.09, thickness 0.018, width 0.022, palm 0.07 deep and
+  // 0.06 wide (the URDF's palm box), open 0.13.
+  const auto boxes = openGripperBoxes(lacquey(), 0.13);
+  expectBox(boxes[0], { -0.045f, 0.065f, -0.011f }, { 0.045f, 0.083f, 0.011f });
+  expectBox(boxes[1], { -0.045f, -0.083f, -0.011f }, { 0.045f, -0.065f, 0.011f });
+  expectBox(boxes[2], { -0.115f, -0.083f, -0.03f }, { -0.045f, 0.083f, 0.03f });
+  expectBox(closingRegionBox(lacquey(), 0.04, 0.005), { -0.045f, -0.025f, -0.011f }, { 0.045f, 0.025f, 0.011f });
+}
+
+TEST(GripperVolume, PalmIsBackedOutOfTheObjectByTheExactOverlap)
+{
+  // A 4 cm wide block whose near face is 6 cm behind the grasp origin: the palm face (4.5 cm
+  // behind) is 1.5 cm inside it, so the hand backs out by 0.015 + 0.003 clearance = 0.018 m
+  // along -approach. The grasp approaches along base -Z here, to exercise the rotation.
+  const GripperModel gripper = lacquey();
+  Eigen::Isometry3d pose = makeGraspPose(Eigen::Vector3d(0.5, 0.1, 0.2), Eigen::Vector3d(0, 0, -1),
+                                         Eigen::Vector3d(1, 0, 0));
+  // In grasp coordinates x in [-0.06, 0.02], |y|, |z| <= 0.02; in base: z = 0.2 - x.
+  CloudXYZ block;
+  for (const auto& p : solidBox({ -0.06f, -0.02f, -0.02f }, { 0.02f, 0.02f, 0.02f }).points)
+  {
+    const Eigen::Vector3f base = (pose * p.getVector3fMap().cast<double>()).cast<float>();
+    block.push_back(PointXYZ(base.x(), base.y(), base.z()));
+  }
+  GripperFitParams params;
+  params.palm_clearance_m = 0.003;
+  params.max_backoff_m = 0.03;
+  GripperVolumeCheck check(gripper, params);
+  check.addSeen(block);
+
+  const GripperFit fit = check.fit(pose, 0.04);
+  ASSERT_TRUE(fit.ok) << fit.why;
+  EXPECT_NEAR(fit.backoff_m, 0.018, 1e-5);
+  EXPECT_TRUE(fit.pose.translation().isApprox(Eigen::Vector3d(0.5, 0.1, 0.218), 1e-5)) << fit.pose.translation();
+  EXPECT_TRUE(fit.pose.linear().isApprox(pose.linear()));
+  EXPECT_EQ(fit.seen_in_gripper, 0u);
+  // Between the fingers after the back-off: grasp x in [-0.045, 0.02 + 0.018 - ...]: the
+  // block's points with x + 0.018 <= 0.045 (all of it), |y| <= 0.025, |z| <= 0.011.
+  std::size_t expected_between = 0;
+  for (const auto& p : solidBox({ -0.06f, -0.02f, -0.02f }, { 0.02f, 0.02f, 0.02f }).points)
+    if (p.x + 0.018f >= -0.045f && std::abs(p.z) <= 0.011f)
+      ++expected_between;
+  EXPECT_EQ(fit.points_between_fingers, expected_between);
+
+  // A hand allowed to back out by 1 cm only rejects the grasp and says why.
+  params.max_backoff_m = 0.01;
+  GripperVolumeCheck strict(gripper, params);
+  strict.addSeen(block);
+  const GripperFit rejected = strict.fit(pose, 0.04);
+  EXPECT_FALSE(rejected.ok);
+  EXPECT_NE(rejected.why.find("max_backoff_m"), std::string::npos) << rejected.why;
+}
+
+TEST(GripperVolume, ObjectWiderThanTheOpeningOrUnseenPartInTheFingersIsRejected)
+{
+  const GripperModel gripper = lacquey();
+  const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  // 15 cm wide (|y| <= 0.075): its sides are inside both open fingers (0.065 .. 0.083).
+  GripperVolumeCheck wide(gripper, GripperFitParams{});
+  wide.addSeen(solidBox({ -0.01f, -0.075f, -0.005f }, { 0.01f, 0.075f, 0.005f }));
+  const GripperFit fit = wide.fit(pose, 0.15);
+  EXPECT_FALSE(fit.ok);
+  EXPECT_GT(fit.seen_in_gripper, 0u);
+  EXPECT_NE(fit.why.find("open fingers"), std::string::npos) << fit.why;
+
+  // A 4 cm object is fine, until unseen-part points fill the space of the +y finger.
+  GripperVolumeCheck occluded(gripper, GripperFitParams{});
+  occluded.addSeen(solidBox({ -0.02f, -0.02f, -0.01f }, { 0.02f, 0.02f, 0.01f }));
+  EXPECT_TRUE(occluded.fit(pose, 0.04).ok);
+  occluded.addUnseen(solidBox({ 0.0f, 0.066f, -0.004f }, { 0.02f, 0.08f, 0.004f }));
+  const GripperFit hidden = occluded.fit(pose, 0.04);
+  EXPECT_FALSE(hidden.ok);
+  EXPECT_GT(hidden.unseen_in_gripper, 0u);
+  EXPECT_EQ(hidden.seen_in_gripper, 0u);
+}
+
+TEST(GripperVolume, NothingBetweenTheFingersIsNoGrasp)
+{
+  // The object lies beside the finger plane (z > finger width / 2): nothing to squeeze.
+  GripperVolumeCheck check(lacquey(), GripperFitParams{});
+  check.addSeen(solidBox({ -0.02f, -0.02f, 0.03f }, { 0.02f, 0.02f, 0.05f }));
+  const GripperFit fit = check.fit(Eigen::Isometry3d::Identity(), 0.04);
+  EXPECT_FALSE(fit.ok);
+  EXPECT_EQ(fit.points_between_fingers, 0u);
+  EXPECT_NE(fit.why.find("between the fingers"), std::string::npos) << fit.why;
+}
+
+TEST(GripperVolume, FilterKeepsFittedGraspsWithTheirBackedOffPoseAndDropsTheRest)
+{
+  GripperVolumeCheck check(lacquey(), GripperFitParams{});
+  check.addSeen(solidBox({ -0.06f, -0.02f, -0.02f }, { 0.02f, 0.02f, 0.02f }));
+  std::vector<GraspCandidate> grasps(2);
+  grasps[0].width_m = 0.04;  // identity pose: backs out by 0.018
+  grasps[1].width_m = 0.04;
+  grasps[1].pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);  // far above: nothing between
+  std::string why;
+  EXPECT_EQ(check.filter(grasps, &why), 1u);
+  ASSERT_EQ(grasps.size(), 1u);
+  EXPECT_NEAR(grasps[0].position().x(), -0.018, 1e-5);
+  EXPECT_NE(why.find("between the fingers"), std::string::npos) << why;
+
+  GripperFitParams off;
+  off.enabled = false;
+  GripperVolumeCheck disabled(lacquey(), off);
+  std::vector<GraspCandidate> untouched(1);
+  EXPECT_EQ(disabled.filter(untouched), 0u);
+  EXPECT_TRUE(untouched[0].pose.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(GripperVolume, InvalidParametersAreNamed)
+{
+  GripperFitParams params;
+  params.max_backoff_m = -1.0;
+  params.min_points_between_fingers = 0;
+  const std::string why = params.validate();
+  EXPECT_NE(why.find("max_backoff_m"), std::string::npos) << why;
+  EXPECT_NE(why.find("min_points_between_fingers"), std::string::npos) << why;
+  EXPECT_TRUE(GripperFitParams{}.validate().empty());
+}
