@@ -144,9 +144,15 @@ int main(int argc, char** argv)
   planners.emplace_back("cshape", std::make_unique<CShapeGraspPlanner>(config.cshape));
 
   std::vector<fs::path> bags;
-  for (const auto& entry : fs::directory_iterator(options.bags_dir))
-    if (entry.path().extension() == ".bag")
-      bags.push_back(entry.path());
+  std::error_code error;
+  for (fs::directory_iterator entry(options.bags_dir, error), end; !error && entry != end; entry.increment(error))
+    if (entry->path().extension() == ".bag")
+      bags.push_back(entry->path());
+  if (error)
+  {
+    std::cerr << "bench_grasps: --bags " << options.bags_dir << ": " << error.message() << "\n";
+    return 1;
+  }
   std::sort(bags.begin(), bags.end());
   if (bags.empty())
   {
