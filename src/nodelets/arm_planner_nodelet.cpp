@@ -299,9 +299,10 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       std_msgs::Header header = grasps->header;
       if (result.success)
       {
+        // Status first: a listener that stops at the trajectory has its summary already.
+        status_.ok(summary(result));
         publishExecutedGrasp(result, header);
         trajectory_pub_.publish(toTrajectoryMsg(result, header));
-        status_.ok(summary(result));
       }
       else
       {
