@@ -45,7 +45,7 @@ struct RobotCollision::Scene
     ConvexShape convex;
     Eigen::Vector3d aabb_half_m = Eigen::Vector3d::Zero();  // world axis-aligned half extents
   };
-  /// World axis-aligned bounds of an OctoMap's occupied leaves (grown by one voxel).
+  /// World axis-aligned bounds of an OctoMap's leaves (grown by one voxel).
   struct Bounds
   {
     Eigen::Vector3d min = Eigen::Vector3d::Zero(), max = Eigen::Vector3d::Zero();
@@ -331,7 +331,7 @@ namespace
 /// Bounds of every leaf (occupied or not: FCL applies its own occupancy threshold), grown by
 /// one voxel so that rounding in FCL's octree boxes cannot fall outside them. An empty tree
 /// gets inverted bounds, which no shape touches.
-RobotCollision::Scene::Bounds occupiedBounds(const octomap::OcTree& tree)
+RobotCollision::Scene::Bounds leafBounds(const octomap::OcTree& tree)
 {
   RobotCollision::Scene::Bounds bounds;
   bounds.min.setConstant(std::numeric_limits<double>::infinity());
@@ -512,7 +512,7 @@ std::size_t RobotCollision::addObstacleCloud(const pcl::PointCloud<pcl::PointXYZ
   std::size_t inserted = 0;
   scene->obstacles = insertPoints(scene_->obstacles, scene->resolution_m, filtered, inserted);
   scene->obstacles_fcl = std::make_shared<fcl::OcTreed>(scene->obstacles);
-  scene->obstacles_bounds = occupiedBounds(*scene->obstacles);
+  scene->obstacles_bounds = leafBounds(*scene->obstacles);
   scene_ = scene;
   return inserted;
 }
@@ -523,7 +523,7 @@ std::size_t RobotCollision::setTargetCloud(const pcl::PointCloud<pcl::PointXYZ>&
   std::size_t inserted = 0;
   scene->target = insertPoints(nullptr, scene->resolution_m, cloud, inserted);
   scene->target_fcl = inserted > 0 ? std::make_shared<fcl::OcTreed>(scene->target) : nullptr;
-  scene->target_bounds = occupiedBounds(*scene->target);
+  scene->target_bounds = leafBounds(*scene->target);
   if (inserted == 0)
     scene->target = nullptr;
   scene_ = scene;
