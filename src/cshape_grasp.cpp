@@ -435,10 +435,14 @@ struct Placement
   bool below_table = false;  // every collision-free depth reaches into the table
   int collision = 0;  // 0 free, 1 seen points, 2 unseen points only
   float grasp_s = 0.0f;
+  float shortfall = 0.0f;  // how much shallower than the preferred depth (table / unseen part)
   ClosingRegion region;
   Eigen::Vector3f contact_a = Eigen::Vector3f::Zero();
   Eigen::Vector3f contact_b = Eigen::Vector3f::Zero();
 };
+
+/// Step of the shallower placements tried when the unseen part blocks the preferred one.
+constexpr float kShallowStep = 0.005f;
 
 /// `max_s`: the deepest centre depth whose gripper body keeps the table clearance (+inf
 /// without a table or when deeper is higher).
@@ -472,8 +476,10 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
   // the C centre), or up to -min_depth in front of it when the table stops the C short (a
   // fingertip grasp: the point stays in the mouth). A point beside the mouth
   // (r1 < |y| <= r2) is inside a finger for all depths within sqrt(r2^2 - y^2) of its own;
-  // if that covers [lowest_s, centre_s], no placement is free and the closing-region passes
-  // below can be skipped (exact; most configurations on objects wider than the C end here).
+  // if that covers [lowest_s, centre_s] (a seen point) or [min_depth, centre_s] (an unseen
+  // point, which the shallow retries below may still avoid), no placement is free and the
+  // closing-region passes below can be skipped (exact; most configurations on objects wider
+  // than the C end here).
   const float lowest_s = std::max(ctx.table.min_depth, std::min(0.0f, max_s));
   placement.grasp_s = centre_s;
   bool unseen_always = false;
@@ -483,15 +489,16 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
     if (y <= c.collision_r1 || y > c.collision_r2)
       continue;
     const float reach = std::sqrt(c.collision_r2_sq - y * y);
-    if (q.s - reach <= lowest_s && q.s + reach >= centre_s)
+    if (q.s + reach < centre_s)
+      continue;
+    if (q.index >= 0 && q.s - reach <= lowest_s)
     {
-      if (q.index >= 0)
-      {
-        placement.collision = 1;
-        return placement;
-      }
-      unseen_always = true;
+      placement.collision = 1;
+      return placement;
     }
+    // Unseen points only block for sure if they also cover the shallow retries (below).
+    if (q.index < 0 && q.s - reach <= ctx.table.min_depth)
+      unseen_always = true;
   }
   if (unseen_always)
   {
@@ -524,16 +531,27 @@ Placement place(const SearchContext& ctx, SlabSpan slab,
     // Never shallower than the normal's own point unless the table demands it (below).
     preferred_s = std::min(centre_s, std::max({ contact_mean_s, circle_s, 0.0f }));
   }
+  const float preferred_unlimited_s = preferred_s;
   preferred_s = std::min(preferred_s, max_s);  // >= lowest_s, checked above
+  auto placeAt = [&](float s) {
+    placement.grasp_s = s;
+    placement.shortfall = std::max(0.0f, preferred_unlimited_s - s);
+    placement.region = closingRegion(c, slab, s);
+    contactPoints(c, slab, s, placement.region, tolerance, placement.contact_a, placement.contact_b);
+    return placement;
+  };
   if (preferred_s < centre_s)
   {
-    if (collide(c, slab, preferred_s) == 0)
-    {
-      placement.grasp_s = preferred_s;
-      placement.region = closingRegion(c, slab, preferred_s);
-      contactPoints(c, slab, preferred_s, placement.region, tolerance, placement.contact_a, placement.contact_b);
-      return placement;  // collision-free by the check above
-    }
+    const int preferred_collision = collide(c, slab, preferred_s);
+    if (preferred_collision == 0)
+      return placeAt(preferred_s);
+    // Only the unseen part is in the way: the fingers reach behind the seen side. A
+    // shallower C (down to the fingertip limit) closes on the seen top of the same sides
+    // (a box taken by its top edge), so try it before the deeper Eq. 6.9 placement.
+    if (preferred_collision == 2)
+      for (float s = preferred_s - kShallowStep; s >= ctx.table.min_depth; s -= kShallowStep)
+        if (collide(c, slab, s) == 0)
+          return placeAt(s);
     if (centre_s > max_s)
     {
       placement.below_table = true;  // the only other depth, Eq. 6.9's, reaches into the table
@@ -780,7 +798,8 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
     grasp.torque_offset_m = (to_centroid - to_centroid.dot(closing) * closing).norm();
     grasp.score = -(sigma + params.variance_weight_rad_per_m * std::min(variance, 1e3) +
                     params.torque_weight_rad_per_m * grasp.torque_offset_m +
-                    params.unseen_width_weight_rad_per_m * (width_all - width_seen)) +
+                    params.unseen_width_weight_rad_per_m * (width_all - width_seen) +
+                    params.shallow_weight_rad_per_m * placement.shortfall) +
                   params.from_above_weight_rad * approach.dot(ctx.gravity);
 
     bool from_sensor_side = false;

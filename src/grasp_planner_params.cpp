@@ -200,6 +200,7 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   reader.read("variance_weight_rad_per_m", p.variance_weight_rad_per_m);
   reader.read("torque_weight_rad_per_m", p.torque_weight_rad_per_m);
   reader.read("unseen_width_weight_rad_per_m", p.unseen_width_weight_rad_per_m);
+  reader.read("shallow_weight_rad_per_m", p.shallow_weight_rad_per_m);
   reader.readCount("min_points", p.min_points, 1);
   reader.read("min_thickness_m", p.min_thickness_m);
   reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);

@@ -474,6 +474,37 @@ TEST(CShapeGrasp, LowBarIsGraspedWithTheFingertipsAboveTheTable)
   EXPECT_LT(best.approach().z(), -0.7) << best.approach().transpose();
 }
 
+TEST(CShapeGrasp, TallBoxWiderThanTheOpeningIsTakenByItsTopEdge)
+{
+  // A 16 x 6 x 21 cm box (the cracker box) standing on the table, its 16 cm face toward a
+  // camera 50 degrees above. The face is wider than the Lacquey's 13 cm opening; the box's
+  // 6 cm thickness runs along the line of sight, its back hidden. A C closing across the
+  // thickness from above at the thesis's depth puts the far finger into the unseen part
+  // behind the top's far edge; stopped short, with the top 1.5+ cm of the box in its mouth,
+  // it closes on the seen top edge: width 0.06 m, from above.
+  const GripperModel gripper = loadGripper("lacquey_fetch");
+  const Eigen::Vector3d centre(0.0, 0.0, 0.105);
+  const double elevation = 50.0 * M_PI / 180.0;
+  const Eigen::Vector3d viewpoint =
+      Eigen::Vector3d(0.0, 0.0, 0.08) + 0.6 * Eigen::Vector3d(0.0, std::cos(elevation), std::sin(elevation));
+  const CloudNormal::Ptr cloud =
+      renderView(makeBox(centre, Eigen::Vector3d(0.16, 0.06, 0.21)), ViewParams{ viewpoint });
+  ObjectView view = makeObjectView(cloud, viewpoint);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+
+  CShapeParams thesis_only = exhaustiveParams();
+  thesis_only.min_fingertip_overlap_m = -1.0;
+  EXPECT_FALSE(CShapeGraspPlanner(thesis_only).plan(view, gripper).ok());
+
+  const GraspResult result = CShapeGraspPlanner(exhaustiveParams()).plan(view, gripper);
+  expectValidGrasps(result, view, gripper);
+  const GraspCandidate& best = result.grasps.front();
+  EXPECT_NEAR(best.width_m, 0.06, 0.004);
+  EXPECT_GT(std::abs(best.binormal().y()), 0.9) << best.binormal().transpose();  // across the thickness
+  EXPECT_LT(best.approach().z(), -0.9) << best.approach().transpose();            // from above
+}
+
 TEST(CShapeGrasp, FromAboveWeightPrefersApproachesAlongGravity)
 {
   // A cylinder lying on its side, seen from 45 degrees above, is grasped across its diameter

@@ -94,8 +94,10 @@ struct CShapeParams
   /// Objects lower than the C's reach below its centre (a hammer handle, a pan's rim) cannot
   /// take the C centre at the normal's point without the fingertips entering the table. The C
   /// may then stop short, its centre in front of the point, as long as the point stays at
-  /// least this far inside the mouth (behind the fingertips): a fingertip grasp. Negative =
-  /// never (the thesis's placement only).
+  /// least this far inside the mouth (behind the fingertips): a fingertip grasp. The same
+  /// shallower placements (5 mm steps) are tried when only the unseen part blocks the
+  /// preferred depth (the far finger behind a box's hidden back: the box is taken by its seen
+  /// top edge). Negative = never (the thesis's placement only).
   double min_fingertip_overlap_m = 0.015;
   /// Score bonus from_above_weight * (approach . gravity): approaches from above (+) are
   /// easier for an arm standing on the same table, from below (-) harder. Small next to sigma,
@@ -114,6 +116,9 @@ struct CShapeParams
   /// region - width of the seen points), i.e. how much of the grasp relies on the guess of
   /// the hidden side. Favours approaches facing the camera, where both sides are seen.
   double unseen_width_weight_rad_per_m = 5.0;
+  /// Also subtracted: shallow_weight * how far the C stopped short of its preferred depth (a
+  /// fingertip grasp holds less of the object than an enveloping one).
+  double shallow_weight_rad_per_m = 5.0;
   /// Inputs with fewer finite points, or thinner than this (RMS distance from the best
   /// plane) or narrower (RMS distance from the best line), are DegenerateInput.
   std::size_t min_points = 10;
