@@ -1034,6 +1034,8 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
     ctx.hand.emplace(gripper, params_.gripper_fit);
     ctx.hand->addSeen(*ctx.seen);
     ctx.hand->addUnseen(unseen_points);
+    if (view.has_table_plane && params_.check_table_clearance)
+      ctx.hand->setTable(view.table_plane);
   }
 
   // Step 3: down-sampled normals, one per voxel, each the normal of a real input point (the

@@ -124,6 +124,7 @@ GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
   reader.readNonNegative("approach_opening_m", p.approach_opening_m);
   reader.readNonNegative("palm_clearance_m", p.palm_clearance_m);
   reader.readNonNegative("max_backoff_m", p.max_backoff_m);
+  reader.readNonNegative("table_clearance_m", p.table_clearance_m);
   reader.readCount("min_points_between_fingers", p.min_points_between_fingers, 1);
   reader.readNonNegative("closing_margin_m", p.closing_margin_m);
   reader.rejectUnknownKeys();

@@ -1,6 +1,7 @@
 #include "fast_grasp/gripper_volume.h"
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 
 namespace fast_grasp
@@ -36,7 +37,9 @@ std::string GripperFitParams::validate() const
   if (!(palm_clearance_m >= 0.0))
     why << "gripper_fit/palm_clearance_m must be >= 0; ";
   if (!(max_backoff_m >= 0.0))
-    why << "gripper_fit/max_backoff_m must be >= 0; ";
+    why << "gripper_fit/max_backoff_m must be >= 0 (0 = automatic); ";
+  if (!(table_clearance_m >= 0.0))
+    why << "gripper_fit/table_clearance_m must be >= 0; ";
   if (min_points_between_fingers < 1)
     why << "gripper_fit/min_points_between_fingers must be >= 1; ";
   if (!(closing_margin_m >= 0.0))
@@ -57,6 +60,29 @@ void GripperVolumeCheck::addUnseen(const CloudXYZ& cloud)
   appendFinite(cloud, unseen_);
 }
 
+double GripperVolumeCheck::maxBackoff() const
+{
+  constexpr double kMinFingerOverlapM = 0.005;
+  return params_.max_backoff_m > 0.0 ? params_.max_backoff_m
+                                     : std::max(0.0, 0.5 * gripper_.finger_depth_m - kMinFingerOverlapM);
+}
+
+void GripperVolumeCheck::setTable(const Eigen::Vector4f& plane)
+{
+  const float length = plane.head<3>().norm();
+  if (!plane.allFinite() || length < 1e-6f)
+    return;
+  table_ = plane / length;
+  // Above = the side most seen points are on.
+  if (seen_.cols() > 0)
+  {
+    const float mean_height = (table_.head<3>().transpose() * seen_).mean() + table_(3);
+    if (mean_height < 0.0f)
+      table_ = -table_;
+  }
+  has_table_ = true;
+}
+
 GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m) const
 {
   GripperFit result;
@@ -65,7 +91,7 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
   const Eigen::Vector3f origin = pose.translation().cast<float>();
   const GripperBox& palm = open_boxes_[2];
   const float clearance = static_cast<float>(params_.palm_clearance_m);
-  const float max_backoff = static_cast<float>(params_.max_backoff_m);
+  const float max_backoff = static_cast<float>(maxBackoff());
 
   // Every obstacle point in grasp coordinates, once: backing the hand out by b along its own
   // X only adds b to each point's x, so one transform serves every check below.
@@ -108,6 +134,41 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
       result.backoff_m = backoff;
       return result;
     }
+  }
+  // The table: the hand's lowest corner moves by -backoff * (normal . approach); a hand
+  // approaching from above is raised by backing out further, any other one is rejected.
+  result.lowest_above_table_m = std::numeric_limits<double>::infinity();
+  if (has_table_)
+  {
+    const Eigen::Vector3f normal = table_.head<3>();
+    const Eigen::Vector3f normal_local = to_local * normal;  // the normal in grasp coordinates
+    float lowest = std::numeric_limits<float>::infinity();
+    for (const GripperBox& box : open_boxes_)
+      for (int corner = 0; corner < 8; ++corner)
+      {
+        const Eigen::Vector3f q((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
+                                (corner & 4) ? box.max.z() : box.min.z());
+        lowest = std::min(lowest, normal_local.dot(q));
+      }
+    lowest += normal.dot(origin) + table_(3);  // at backoff 0
+    const float descent = normal_local.x();   // height change per metre along the approach
+    const float table_clearance = static_cast<float>(params_.table_clearance_m);
+    if (lowest - backoff * descent < table_clearance)
+    {
+      if (descent < -1e-3f)
+        backoff = std::max(backoff, (table_clearance - lowest) / -descent + 1e-5f);
+      if (descent >= -1e-3f || backoff > max_backoff)
+      {
+        std::ostringstream why;
+        why << "the open hand would reach " << lowest - backoff * descent << " m above the table (< gripper_fit/"
+            << "table_clearance_m " << table_clearance << ")"
+            << (descent < -1e-3f ? " within gripper_fit/max_backoff_m" : " and backing out does not raise it");
+        result.why = why.str();
+        result.backoff_m = backoff;
+        return result;
+      }
+    }
+    result.lowest_above_table_m = lowest - backoff * descent;
   }
   result.backoff_m = backoff;
   result.pose.translation() = pose.translation() - static_cast<double>(backoff) * pose.linear().col(0);

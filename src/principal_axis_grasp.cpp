@@ -572,6 +572,8 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     }
     GripperVolumeCheck check(gripper, p.gripper_fit);
     check.addSeen(*view.cloud);
+    if (view.has_table_plane)
+      check.setTable(view.table_plane);
     check.filter(grasps, &why, p.max_grasps);
   };
   const bool two_cameras = p.two_camera_mode && view.sensor_origins.size() >= 2 && view.sensor_origins[1].allFinite();

@@ -19,6 +19,7 @@ import yaml
 from sensor_msgs import point_cloud2
 from sensor_msgs.msg import PointCloud2
 
+from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
@@ -65,12 +66,14 @@ class GraspPipelineTest(unittest.TestCase):
         cls.check_trajectory = rospy.get_param("~check_trajectory", False)
         cls.arm_grasps_from = rospy.get_param("~arm_grasps_from", "")
         cls.trajectories = []
+        cls.executed = {}  # stamp ns -> pose the trajectory ends at (a flipped / tilted variant)
         cls.arm_statuses = []
         cls.scenes = {}
         rospy.Subscriber("/normal_estimation/output", PointCloud2, cls.on_object, queue_size=5)
         if cls.check_trajectory:
             rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, cls.on_trajectory, queue_size=5)
             rospy.Subscriber("/arm_planner/status", String, cls.on_arm_status, queue_size=20)
+            rospy.Subscriber("/arm_planner/executed_grasp", PoseStamped, cls.on_executed, queue_size=5)
             rospy.Subscriber("/table_segmentation/scene", PointCloud2, cls.on_scene, queue_size=5)
         for name in cls.planners:
             rospy.Subscriber("/%s/grasps" % name, GraspArray, cls.on_grasps, callback_args=name, queue_size=5)
@@ -106,6 +109,11 @@ class GraspPipelineTest(unittest.TestCase):
     def on_trajectory(cls, msg):
         with cls.lock:
             cls.trajectories.append((msg, cls.arm_statuses[-1] if cls.arm_statuses else ""))
+
+    @classmethod
+    def on_executed(cls, msg):
+        with cls.lock:
+            cls.executed[msg.header.stamp.to_nsec()] = msg.pose
 
     @classmethod
     def on_arm_status(cls, msg):
@@ -227,8 +235,16 @@ class GraspPipelineTest(unittest.TestCase):
             statuses = list(self.arm_statuses)
             scenes = dict(self.scenes)
             arrays = {a.header.stamp.to_nsec(): a for a in self.grasps[self.arm_grasps_from]}
+            executed = dict(self.executed)
+            objects = dict(self.objects)
         self.assertTrue(trajectories, "no trajectory; arm planner said: %s" % statuses[-3:])
         traj, status = trajectories[0]
+        import time
+        end = time.monotonic() + 2.0  # ~executed_grasp is published with the trajectory
+        while time.monotonic() < end and traj.header.stamp.to_nsec() not in executed:
+            time.sleep(0.05)
+            with self.lock:
+                executed = dict(self.executed)
         import re
         match = re.search(r"grasp (\d+):", status)
         self.assertIsNotNone(match, "arm status names no grasp: %r" % status)
@@ -255,6 +271,27 @@ class GraspPipelineTest(unittest.TestCase):
         gq = grasp.pose.orientation
         g_rot = grasp_checks.quaternion_matrix(gq.x, gq.y, gq.z, gq.w)
         g_pos = np.array([grasp.pose.position.x, grasp.pose.position.y, grasp.pose.position.z])
+        # The arm may execute a variant of the grasp (flipped about the approach, approach tilted
+        # about the closing axis): the same closing line, so the same contacts. Check that it is
+        # one, that the open hand is still clear of the object there, and aim the motion at it.
+        pose = executed.get(traj.header.stamp.to_nsec())
+        if pose is not None:
+            e_rot = grasp_checks.quaternion_matrix(pose.orientation.x, pose.orientation.y, pose.orientation.z,
+                                                   pose.orientation.w)
+            e_pos = np.array([pose.position.x, pose.position.y, pose.position.z])
+            self.assertLess(np.linalg.norm(e_pos - g_pos), 0.001, "executed grasp moved: %s" % status)
+            self.assertGreater(abs(float(e_rot[:, 1] @ g_rot[:, 1])), np.cos(np.radians(1.0)),
+                               "executed grasp closes along another line: %s" % status)
+            tilt = np.degrees(np.arccos(np.clip(float(e_rot[:, 0] @ g_rot[:, 0]), -1.0, 1.0)))
+            self.assertLessEqual(tilt, arm.get("max_approach_tilt_deg", 0.0) + 0.5, status)
+            points = objects.get(traj.header.stamp.to_nsec())
+            if points is not None:
+                local = grasp_checks.to_grasp_frame(points, e_pos, e_rot)
+                self.assertLessEqual(grasp_checks.points_in_gripper(local, self.gripper, self.gripper["max_opening_m"]),
+                                     2, "executed variant: object points inside the open gripper (%s)" % status)
+                self.assertGreaterEqual(grasp_checks.closing_region_count(local, grasp.width_m, self.gripper), 5,
+                                        "executed variant: nothing between the fingers (%s)" % status)
+            g_pos, g_rot = e_pos, e_rot
         pre_pos = g_pos - arm["approach_distance_m"] * g_rot[:, 0]
         poses = [chain.fk(qi) for qi in q]
 

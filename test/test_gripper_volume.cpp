@@ -110,6 +110,47 @@ TEST(GripperVolume, ObjectWiderThanTheOpeningOrUnseenPartInTheFingersIsRejected)
   EXPECT_EQ(hidden.seen_in_gripper, 0u);
 }
 
+TEST(GripperVolume, HandFromAboveIsRaisedOffTheTableAndASideHandBelowItIsDropped)
+{
+  // A 3 cm high bar on the table z = 0, grasped from above with the origin at its mid-height
+  // (z = 0.015): the open fingers reach finger_depth / 2 = 0.045 m below the origin, to
+  // z = -0.03. With a 1 cm table clearance the hand is raised by 0.01 + 0.03 = 0.04 m.
+  const GripperModel gripper = lacquey();
+  CloudXYZ bar = solidBox({ -0.1f, -0.015f, 0.0f }, { 0.1f, 0.015f, 0.03f });
+  GripperFitParams params;
+  params.max_backoff_m = 0.045;
+  params.table_clearance_m = 0.01;
+  GripperVolumeCheck check(gripper, params);
+  check.addSeen(bar);
+  check.setTable(Eigen::Vector4f(0, 0, -2, 0));  // not unit, pointing down: turned toward the bar
+  const Eigen::Isometry3d from_above =
+      makeGraspPose(Eigen::Vector3d(0, 0, 0.015), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, 1, 0));
+  const GripperFit fit = check.fit(from_above, 0.03);
+  ASSERT_TRUE(fit.ok) << fit.why;
+  EXPECT_NEAR(fit.backoff_m, 0.04, 1e-4);
+  EXPECT_NEAR(fit.pose.translation().z(), 0.055, 1e-4);
+  EXPECT_NEAR(fit.lowest_above_table_m, 0.01, 1e-4);
+  EXPECT_GT(fit.points_between_fingers, 0u);  // the bar's top 2 cm
+
+  // Allowed to back out by 3 cm only: the fingertips would stay 1 cm under the clearance.
+  params.max_backoff_m = 0.03;
+  GripperVolumeCheck short_reach(gripper, params);
+  short_reach.addSeen(bar);
+  short_reach.setTable(Eigen::Vector4f(0, 0, 1, 0));
+  EXPECT_FALSE(short_reach.fit(from_above, 0.03).ok);
+
+  // From the side (approach +x, closing +y) at z = 0.015: the palm, 0.06 m wide across the
+  // closing plane (z here), reaches z = -0.015; backing out along x cannot raise it.
+  const Eigen::Isometry3d from_side = makeGraspPose(Eigen::Vector3d(-0.0, 0, 0.015), Eigen::Vector3d(1, 0, 0),
+                                                    Eigen::Vector3d(0, 1, 0));
+  GripperVolumeCheck side(gripper, GripperFitParams{});
+  side.addSeen(solidBox({ -0.01f, -0.015f, 0.0f }, { 0.01f, 0.015f, 0.03f }));
+  side.setTable(Eigen::Vector4f(0, 0, 1, 0));
+  const GripperFit dropped = side.fit(from_side, 0.03);
+  EXPECT_FALSE(dropped.ok);
+  EXPECT_NE(dropped.why.find("table"), std::string::npos) << dropped.why;
+}
+
 TEST(GripperVolume, NothingBetweenTheFingersIsNoGrasp)
 {
   // The object lies beside the finger plane (z > finger width / 2): nothing to squeeze.
@@ -126,13 +167,15 @@ TEST(GripperVolume, FilterKeepsFittedGraspsWithTheirBackedOffPoseAndDropsTheRest
   GripperVolumeCheck check(lacquey(), GripperFitParams{});
   check.addSeen(solidBox({ -0.06f, -0.02f, -0.02f }, { 0.02f, 0.02f, 0.02f }));
   std::vector<GraspCandidate> grasps(2);
-  grasps[0].width_m = 0.04;  // identity pose: backs out by 0.018
+  // Identity pose: the palm face (-0.045) is 0.015 m inside the block (near face -0.06); with
+  // the default 0.011 m clearance the hand backs out by 0.026 m (within 0.045 - 0.005).
+  grasps[0].width_m = 0.04;
   grasps[1].width_m = 0.04;
   grasps[1].pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);  // far above: nothing between
   std::string why;
   EXPECT_EQ(check.filter(grasps, &why), 1u);
   ASSERT_EQ(grasps.size(), 1u);
-  EXPECT_NEAR(grasps[0].position().x(), -0.018, 1e-5);
+  EXPECT_NEAR(grasps[0].position().x(), -0.026, 1e-5);
   EXPECT_NE(why.find("between the fingers"), std::string::npos) << why;
 
   GripperFitParams off;
@@ -141,6 +184,19 @@ TEST(GripperVolume, FilterKeepsFittedGraspsWithTheirBackedOffPoseAndDropsTheRest
   std::vector<GraspCandidate> untouched(1);
   EXPECT_EQ(disabled.filter(untouched), 0u);
   EXPECT_TRUE(untouched[0].pose.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+TEST(GripperVolume, AutomaticBackoffKeepsTheClosingLineBetweenTheFingers)
+{
+  // max_backoff_m = 0: half the finger depth minus 5 mm. Lacquey 0.09 m fingers: 0.04 m;
+  // Robotiq 2F-85 0.04 m fingers: 0.015 m.
+  EXPECT_NEAR(GripperVolumeCheck(lacquey(), GripperFitParams{}).maxBackoff(), 0.04, 1e-12);
+  const GripperModel robotiq =
+      loadGripperModel(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/robotiq_2f85.yaml");
+  EXPECT_NEAR(GripperVolumeCheck(robotiq, GripperFitParams{}).maxBackoff(), 0.015, 1e-12);
+  GripperFitParams fixed;
+  fixed.max_backoff_m = 0.02;
+  EXPECT_NEAR(GripperVolumeCheck(robotiq, fixed).maxBackoff(), 0.02, 1e-12);
 }
 
 TEST(GripperVolume, InvalidParametersAreNamed)

@@ -54,10 +54,16 @@ struct GripperFitParams
   bool enabled = true;
   /// Opening of the hand while it approaches; 0 = the gripper's max_opening_m.
   double approach_opening_m = 0.0;
-  /// The palm stops this far in front of the nearest obstacle point.
-  double palm_clearance_m = 0.003;
-  /// Largest back-off along -approach; deeper conflicts reject the grasp.
-  double max_backoff_m = 0.03;
+  /// The palm stops this far in front of the nearest obstacle point. The arm planner inflates
+  /// its links by link_padding_m (5 mm) and sees points as OctoMap voxels (5 mm), so a palm
+  /// nearer than ~1 cm is a collision for it: the default keeps the two consistent.
+  double palm_clearance_m = 0.011;
+  /// Largest back-off along -approach; deeper conflicts reject the grasp. 0 = half the finger
+  /// depth minus 5 mm, so the planned closing line stays between the fingers.
+  double max_backoff_m = 0.0;
+  /// With a table plane in the view, every corner of the open hand must stay this high above
+  /// it; a hand approaching from above is backed out (raised) until it does.
+  double table_clearance_m = 0.01;
   /// Seen object points that must lie between the closed fingers after the back-off.
   int min_points_between_fingers = 5;
   /// Y margin of the closing region per side when counting those points.
@@ -75,6 +81,7 @@ struct GripperFit
   std::size_t seen_in_gripper = 0;       // seen points inside the open hand at `pose`
   std::size_t unseen_in_gripper = 0;     // unseen-part points inside it
   std::size_t points_between_fingers = 0;
+  double lowest_above_table_m = 0.0;     // lowest hand corner above the table (inf without one)
   std::string why;                       // empty when ok
 };
 
@@ -91,6 +98,9 @@ public:
     appendFinite(cloud, seen_);
   }
   void addUnseen(const CloudXYZ& cloud);
+  /// The supporting plane a x + b y + c z + d = 0 ((a, b, c) need not be unit; the side of
+  /// the seen points is "above"). Ignored when not finite or degenerate.
+  void setTable(const Eigen::Vector4f& plane);
 
   /// Places the open hand at `pose`, backs it out until the palm clears (at most
   /// max_backoff_m), and reports whether the hand is then free of every obstacle point and
@@ -104,6 +114,8 @@ public:
                      std::size_t max_kept = std::numeric_limits<std::size_t>::max()) const;
 
   const GripperFitParams& params() const { return params_; }
+  /// max_backoff_m, or its automatic value for this gripper.
+  double maxBackoff() const;
 
 private:
   /// Appends the finite points of `cloud` as columns of `points`.
@@ -123,6 +135,8 @@ private:
   std::array<GripperBox, 3> open_boxes_;
   Eigen::Matrix3Xf seen_;    // columns: points (matrices, so one product transforms them all)
   Eigen::Matrix3Xf unseen_;
+  bool has_table_ = false;
+  Eigen::Vector4f table_ = Eigen::Vector4f::Zero();  // unit normal toward the object
 };
 
 }  // namespace fast_grasp
