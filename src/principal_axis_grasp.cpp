@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -561,20 +562,29 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
 
   GraspResult result;
   std::vector<Eigen::Vector3f> scratch;
-  // The real hand's volume (gripper_volume.h) at the stable grasps, best first, until
-  // max_grasps fit (the rest are cut): built only when there is something to check.
-  auto fitGripper = [&](std::vector<GraspCandidate>& grasps, std::string& why) {
+  // The real hand's volume (gripper_volume.h) at the stable grasps (result.grasps, sorted),
+  // best first, until max_grasps fit (the rest are cut); built only when there is something
+  // to check. Returns the failure when stable grasps existed but the hand fits at none.
+  auto fitGripper = [&](const char* label) -> std::optional<GraspResult> {
+    std::vector<GraspCandidate>& grasps = result.grasps;
     if (grasps.empty() || !p.gripper_fit.enabled)
     {
       if (grasps.size() > p.max_grasps)
         grasps.resize(p.max_grasps);
-      return;
+      return std::nullopt;
     }
     GripperVolumeCheck check(gripper, p.gripper_fit);
     check.addSeen(*view.cloud);
     if (view.has_table_plane)
       check.setTable(view.table_plane);
+    const std::size_t stable = grasps.size();
+    std::string why;
     check.filter(grasps, &why, p.max_grasps);
+    if (!grasps.empty())
+      return std::nullopt;
+    return GraspResult::fail(GraspFailure::NoStableGrasp, std::string(label) + ": " + std::to_string(stable) +
+                                                              " grasps pass XOY and XOZ but the hand does not fit at "
+                                                              "any (first: " + why + ")");
   };
   const bool two_cameras = p.two_camera_mode && view.sensor_origins.size() >= 2 && view.sensor_origins[1].allFinite();
 
@@ -627,14 +637,8 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     }
     sortGraspsBestFirst(result.grasps);
     sortGraspsBestFirst(result.candidates);
-    std::string fit_problem;
-    const std::size_t stable = result.grasps.size();
-    fitGripper(result.grasps, fit_problem);
-    if (stable > 0 && result.grasps.empty())
-      return finish(GraspResult::fail(GraspFailure::NoStableGrasp,
-                                      "principal_axis: " + std::to_string(stable) +
-                                          " grasps pass XOY and XOZ but the hand does not fit at any (first: " +
-                                          fit_problem + ")"));
+    if (std::optional<GraspResult> no_fit = fitGripper("principal_axis"))
+      return finish(std::move(*no_fit));
     if (!result.grasps.empty())
     {
       result.message = "principal_axis: " + std::to_string(result.grasps.size()) + " grasps, best XOY " +
@@ -794,14 +798,8 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
   }
   result.candidates_evaluated = evaluated;
   sortGraspsBestFirst(result.grasps);
-  std::string fit_problem;
-  const std::size_t stable = result.grasps.size();
-  fitGripper(result.grasps, fit_problem);
-  if (stable > 0 && result.grasps.empty())
-    return finish(GraspResult::fail(GraspFailure::NoStableGrasp,
-                                    "principal_axis (two cameras): " + std::to_string(stable) +
-                                        " grasps pass XOY and XOZ but the hand does not fit at any (first: " +
-                                        fit_problem + ")"));
+  if (std::optional<GraspResult> no_fit = fitGripper("principal_axis (two cameras)"))
+    return finish(std::move(*no_fit));
   ViewEvaluation& drawn = result.grasps.empty() ? first_view : chosen_view;
   if (have_first)
   {

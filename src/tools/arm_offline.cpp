@@ -19,8 +19,6 @@
 #include "fast_grasp/unseen_part.h"
 
 #include <pcl/console/print.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstdio>
@@ -50,16 +48,6 @@ struct Options
   bool first_camera_only = false;  // unseen part from the first camera alone (the nodelet before sensor_frames)
   int explain_grasp = -1;  // >= 0: list every IK solution of this grasp and why it is invalid
 };
-
-bool bagHasTopic(const std::string& path, const std::string& topic)
-{
-  rosbag::Bag bag(path, rosbag::bagmode::Read);
-  rosbag::View view(bag);
-  for (const rosbag::ConnectionInfo* connection : view.getConnections())
-    if (connection->topic == topic)
-      return true;
-  return false;
-}
 
 std::vector<SensorCloud> readClouds(const Options& options)
 {

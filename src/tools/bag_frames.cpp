@@ -60,4 +60,14 @@ std::vector<BagFrame> readBagFrames(const std::string& bag_path, const std::stri
   return frames;
 }
 
+bool bagHasTopic(const std::string& bag_path, const std::string& topic)
+{
+  rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
+  rosbag::View view(bag);
+  for (const rosbag::ConnectionInfo* connection : view.getConnections())
+    if (connection->topic == topic)
+      return true;
+  return false;
+}
+
 }  // namespace fast_grasp

@@ -25,4 +25,8 @@ struct BagFrame
 std::vector<BagFrame> readBagFrames(const std::string& bag_path, const std::string& cloud_topic,
                                     const std::string& base_frame = "base_link");
 
+/// True when the bag records `topic` (e.g. a head camera next to the hand camera). Throws
+/// rosbag::BagException on an unreadable bag.
+bool bagHasTopic(const std::string& bag_path, const std::string& topic);
+
 }  // namespace fast_grasp

@@ -16,8 +16,6 @@
 #include <pcl/console/print.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
-#include <rosbag/bag.h>
-#include <rosbag/view.h>
 
 #include <cmath>
 #include <cstdio>
@@ -221,17 +219,6 @@ private:
 [[noreturn]] void failInput(const std::string& reason)
 {
   throw FailureError({ "input", "InputError", reason });
-}
-
-bool bagHasTopic(const std::string& bag_path, const std::string& topic)
-{
-  rosbag::Bag bag;
-  bag.open(bag_path, rosbag::bagmode::Read);
-  rosbag::View view(bag);
-  for (const rosbag::ConnectionInfo* connection : view.getConnections())
-    if (connection->topic == topic)
-      return true;
-  return false;
 }
 
 std::vector<SensorCloud> readBagInput(const Options& options)
