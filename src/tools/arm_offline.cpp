@@ -60,11 +60,7 @@ std::vector<SensorCloud> readClouds(const Options& options)
   if (bagHasTopic(options.bag_path, head_topic))
   {
     const std::vector<BagFrame> head = readBagFrames(options.bag_path, head_topic);
-    const BagFrame* closest = &head.front();
-    for (const BagFrame& candidate : head)
-      if (std::abs(candidate.stamp_s - frame.stamp_s) < std::abs(closest->stamp_s - frame.stamp_s))
-        closest = &candidate;
-    clouds.push_back(sensorCloudFromBagFrame(*closest));
+    clouds.push_back(sensorCloudFromBagFrame(closestFrame(head, frame.stamp_s)));
   }
   return clouds;
 }

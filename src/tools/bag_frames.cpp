@@ -8,6 +8,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace fast_grasp
@@ -68,6 +69,17 @@ bool bagHasTopic(const std::string& bag_path, const std::string& topic)
     if (connection->topic == topic)
       return true;
   return false;
+}
+
+const BagFrame& closestFrame(const std::vector<BagFrame>& frames, double stamp_s)
+{
+  if (frames.empty())
+    throw std::runtime_error("no frame to choose from");
+  const BagFrame* closest = &frames.front();
+  for (const BagFrame& candidate : frames)
+    if (std::abs(candidate.stamp_s - stamp_s) < std::abs(closest->stamp_s - stamp_s))
+      closest = &candidate;
+  return *closest;
 }
 
 }  // namespace fast_grasp

@@ -25,6 +25,10 @@ struct BagFrame
 std::vector<BagFrame> readBagFrames(const std::string& bag_path, const std::string& cloud_topic,
                                     const std::string& base_frame = "base_link");
 
+/// The frame of `frames` closest in time to `stamp_s` (two-camera mode: the head camera's frame
+/// for a hand camera's). Throws std::runtime_error when `frames` is empty.
+const BagFrame& closestFrame(const std::vector<BagFrame>& frames, double stamp_s);
+
 /// True when the bag records `topic` (e.g. a head camera next to the hand camera). Throws
 /// rosbag::BagException on an unreadable bag.
 bool bagHasTopic(const std::string& bag_path, const std::string& topic);

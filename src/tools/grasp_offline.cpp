@@ -240,11 +240,7 @@ std::vector<SensorCloud> readBagInput(const Options& options)
     {
       // Two-camera mode (Ch3.5): the head camera's frame closest in time to the hand camera's.
       const std::vector<BagFrame> head = readBagFrames(options.bag_path, kHeadTopic);
-      const BagFrame* closest = &head.front();
-      for (const BagFrame& candidate : head)
-        if (std::abs(candidate.stamp_s - frame.stamp_s) < std::abs(closest->stamp_s - frame.stamp_s))
-          closest = &candidate;
-      clouds.push_back(sensorCloudFromBagFrame(*closest));
+      clouds.push_back(sensorCloudFromBagFrame(closestFrame(head, frame.stamp_s)));
     }
     return clouds;
   }
