@@ -6,6 +6,7 @@
 #include <ompl/base/spaces/RealVectorStateProjections.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
 #include <ompl/geometric/SimpleSetup.h>
+#include <ompl/util/Console.h>
 #include <ompl/geometric/planners/est/BiEST.h>
 #include <ompl/geometric/planners/est/EST.h>
 #include <ompl/geometric/planners/est/ProjEST.h>
@@ -181,6 +182,12 @@ const char* toString(MotionPlanStatus status)
     case MotionPlanStatus::NoPath: return "no path in time";
   }
   return "unknown";
+}
+
+ArmMotionPlanner::ArmMotionPlanner(const RobotCollision& collision) : collision_(collision)
+{
+  if (ompl::msg::getLogLevel() < ompl::msg::LOG_WARN)
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
 }
 
 const std::vector<std::string>& ArmMotionPlanner::plannerNames()

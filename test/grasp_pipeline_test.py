@@ -240,11 +240,14 @@ class GraspPipelineTest(unittest.TestCase):
         self.assertTrue(trajectories, "no trajectory; arm planner said: %s" % statuses[-3:])
         traj, status = trajectories[0]
         import time
-        end = time.monotonic() + 2.0  # ~executed_grasp is published with the trajectory
-        while time.monotonic() < end and traj.header.stamp.to_nsec() not in executed:
+        # ~status and ~executed_grasp are published with the trajectory, on other topics: they
+        # may arrive a little later (the status is attached to the trajectory when it does).
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end and (not status or traj.header.stamp.to_nsec() not in executed):
             time.sleep(0.05)
             with self.lock:
                 executed = dict(self.executed)
+                status = self.trajectories[0][1]
         import re
         match = re.search(r"grasp (\d+):", status)
         self.assertIsNotNone(match, "arm status names no grasp: %r" % status)
