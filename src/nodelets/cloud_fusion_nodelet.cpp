@@ -2,16 +2,13 @@
 // and head camera clouds (both already in the base frame) and publishes their concatenation,
 // zero-copy. The planner gets the two sensor origins from tf (~sensor_frames), so the fused
 // cloud keeps the hand cloud's sensor_origin_ only.
-#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/cloud_nodelet.h"
 
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
-#include <nodelet/nodelet.h>
-#include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl/point_types.h>
-#include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include <algorithm>
@@ -111,16 +108,7 @@ private:
 
   void callback(const CloudConstPtr& hand, const CloudConstPtr& head)
   {
-    // Exceptions must not escape into the nodelet manager's callback queue.
-    try
-    {
-      fuse(hand, head);
-    }
-    catch (const std::exception& e)
-    {
-      NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
-      status_.error(std::string("unexpected exception: ") + e.what());
-    }
+    reportExceptions(name_, status_, [&] { fuse(hand, head); });
   }
 
   void fuse(const CloudConstPtr& hand, const CloudConstPtr& head)
@@ -166,10 +154,12 @@ private:
 };
 }  // namespace
 
-class CloudFusionNodelet : public nodelet_topic_tools::NodeletLazy
+/// Two synchronised inputs, ~hand and ~head, so not a CloudNodelet: only the start-up is shared.
+class CloudFusionNodelet : public CloudNodeletBase
 {
 private:
-  void onInit() override;
+  std::string readParameters(ros::NodeHandle& pnh) override;
+  void advertiseOutputs(ros::NodeHandle& pnh) override;
   void subscribe() override;
   void unsubscribe() override;
 
@@ -180,52 +170,44 @@ private:
     pipeline_ = std::make_unique<TypedFusionPipeline<PointT>>(settings, output_pub_, status_, getName());
   }
 
-  NodeletStatus status_;
+  std::string point_type_ = "xyz";
+  FusionSettings settings_;
   ros::Publisher output_pub_;
   std::unique_ptr<FusionPipeline> pipeline_;
 };
 
-void CloudFusionNodelet::onInit()
+std::string CloudFusionNodelet::readParameters(ros::NodeHandle& pnh)
 {
-  NodeletLazy::onInit();
-  ros::NodeHandle& pnh = *pnh_;
-  std::string point_type = "xyz";
-  FusionSettings settings;
-  int max_output_points = static_cast<int>(settings.max_output_points);
-  pnh.param("point_type", point_type, point_type);
-  pnh.param("queue_size", settings.queue_size, settings.queue_size);
-  pnh.param("exact_sync", settings.exact_sync, settings.exact_sync);
-  pnh.param("max_interval_s", settings.max_interval_s, settings.max_interval_s);
+  int max_output_points = static_cast<int>(settings_.max_output_points);
+  pnh.param("point_type", point_type_, point_type_);
+  pnh.param("queue_size", settings_.queue_size, settings_.queue_size);
+  pnh.param("exact_sync", settings_.exact_sync, settings_.exact_sync);
+  pnh.param("max_interval_s", settings_.max_interval_s, settings_.max_interval_s);
   pnh.param("max_output_points", max_output_points, max_output_points);
-  status_.init(*nh_, pnh, getName());
 
-  std::string bad;
-  if (settings.queue_size < 1)
-    bad = "queue_size must be >= 1";
-  else if (!(settings.max_interval_s >= 0.0))
-    bad = "max_interval_s must be >= 0 (0: unbounded)";
-  else if (max_output_points < 1)
-    bad = "max_output_points must be >= 1";
-  else if (point_type != "xyz" && point_type != "xyzrgb" && point_type != "xyznormal")
-    bad = "point_type must be xyz, xyzrgb or xyznormal (got '" + point_type + "')";
-  if (!bad.empty())
-  {
-    NODELET_ERROR("Initialization failed: %s", bad.c_str());
-    status_.error("initialization failed: " + bad);
-    return;  // no publisher, so the lazy machinery never subscribes
-  }
-  settings.max_output_points = static_cast<std::size_t>(max_output_points);
-  NODELET_DEBUG("point_type %s, queue_size %d, exact_sync %d, max_interval_s %.3f", point_type.c_str(),
-                settings.queue_size, settings.exact_sync ? 1 : 0, settings.max_interval_s);
+  if (settings_.queue_size < 1)
+    return "queue_size must be >= 1";
+  if (!(settings_.max_interval_s >= 0.0))
+    return "max_interval_s must be >= 0 (0: unbounded)";
+  if (max_output_points < 1)
+    return "max_output_points must be >= 1";
+  if (point_type_ != "xyz" && point_type_ != "xyzrgb" && point_type_ != "xyznormal")
+    return "point_type must be xyz, xyzrgb or xyznormal (got '" + point_type_ + "')";
+  settings_.max_output_points = static_cast<std::size_t>(max_output_points);
+  NODELET_DEBUG("point_type %s, queue_size %d, exact_sync %d, max_interval_s %.3f", point_type_.c_str(),
+                settings_.queue_size, settings_.exact_sync ? 1 : 0, settings_.max_interval_s);
+  return {};
+}
 
-  if (point_type == "xyz")
-    makePipeline<pcl::PointXYZ>(settings);
-  else if (point_type == "xyzrgb")
-    makePipeline<pcl::PointXYZRGB>(settings);
+void CloudFusionNodelet::advertiseOutputs(ros::NodeHandle& /*pnh*/)
+{
+  if (point_type_ == "xyz")
+    makePipeline<pcl::PointXYZ>(settings_);
+  else if (point_type_ == "xyzrgb")
+    makePipeline<pcl::PointXYZRGB>(settings_);
   else
-    makePipeline<pcl::PointNormal>(settings);
+    makePipeline<pcl::PointNormal>(settings_);
   status_.ok("waiting for synchronised hand and head clouds");
-  onInitPostProcess();
 }
 
 void CloudFusionNodelet::subscribe()

@@ -1,16 +1,13 @@
 // fast_grasp/CloudPreprocess: raw organised camera cloud -> reach-filtered, voxelised cloud in
 // the base frame (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around preprocessCloud().
 #include "fast_grasp/cloud_preprocess.h"
-#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 
-#include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_conversions/pcl_conversions.h>
-#include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <sensor_msgs/PointCloud2.h>
-#include <std_msgs/UInt64.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -22,14 +19,12 @@
 
 namespace fast_grasp
 {
-class CloudPreprocessNodelet : public nodelet_topic_tools::NodeletLazy
+class CloudPreprocessNodelet : public CloudNodelet<sensor_msgs::PointCloud2>
 {
 private:
-  void onInit() override;
-  void subscribe() override;
-  void unsubscribe() override;
-  void cloudCallback(const sensor_msgs::PointCloud2::ConstPtr& msg);
-  void process(const sensor_msgs::PointCloud2& msg);
+  std::string readParameters(ros::NodeHandle& pnh) override;
+  void advertiseOutputs(ros::NodeHandle& pnh) override;
+  void process(const InputConstPtr& input) override;
   /// Structural checks on the message, before any conversion; empty string when usable.
   std::string checkMessage(const sensor_msgs::PointCloud2& msg) const;
   /// Byte offset of a FLOAT32 field, -1 if absent.
@@ -38,21 +33,14 @@ private:
   PreprocessParams params_;
   std::string base_frame_ = "base_link";
   double tf_timeout_s_ = 0.2;
-  bool publish_address_ = false;
-  bool params_ok_ = false;
 
-  NodeletStatus status_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  ros::Subscriber cloud_sub_;
   ros::Publisher output_pub_;
-  ros::Publisher sent_address_pub_;
 };
 
-void CloudPreprocessNodelet::onInit()
+std::string CloudPreprocessNodelet::readParameters(ros::NodeHandle& pnh)
 {
-  NodeletLazy::onInit();
-  ros::NodeHandle& pnh = *pnh_;
   pnh.param("base_frame", base_frame_, base_frame_);
   pnh.param("reach_m", params_.reach_m, params_.reach_m);
   std::vector<double> reach_centre{ 0.0, 0.0, 0.0 };
@@ -64,9 +52,7 @@ void CloudPreprocessNodelet::onInit()
   int max_input_points = static_cast<int>(params_.max_input_points);
   pnh.param("max_input_points", max_input_points, max_input_points);
   pnh.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
-  pnh.param("publish_address", publish_address_, publish_address_);
 
-  status_.init(*nh_, pnh, getName());
   std::string bad;
   if (reach_centre.size() != 3)
     bad = "reach_centre_m must have 3 elements";
@@ -87,33 +73,18 @@ void CloudPreprocessNodelet::onInit()
     if (check.reason.rfind("invalid parameters", 0) == 0)
       bad = check.reason;
   }
-  params_ok_ = bad.empty();
-  if (!params_ok_)
-  {
-    NODELET_ERROR("Initialization failed: %s", bad.c_str());
-    status_.error("initialization failed: " + bad);
-    return;
-  }
+  if (!bad.empty())
+    return bad;
   NODELET_DEBUG("reach_m %.3f, leaf_size_m %.4f, pixel_stride %d, max_input_points %zu, base_frame %s",
                 params_.reach_m, params_.leaf_size_m, params_.pixel_stride, params_.max_input_points,
                 base_frame_.c_str());
+  return {};
+}
 
+void CloudPreprocessNodelet::advertiseOutputs(ros::NodeHandle& pnh)
+{
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
   output_pub_ = advertise<pcl::PointCloud<pcl::PointXYZ>>(pnh, "output", 1);
-  if (publish_address_)
-    sent_address_pub_ = pnh.advertise<std_msgs::UInt64>("sent_address", 10);
-  onInitPostProcess();
-}
-
-void CloudPreprocessNodelet::subscribe()
-{
-  if (params_ok_)
-    cloud_sub_ = nh_->subscribe("input", 1, &CloudPreprocessNodelet::cloudCallback, this);
-}
-
-void CloudPreprocessNodelet::unsubscribe()
-{
-  cloud_sub_.shutdown();
 }
 
 std::string CloudPreprocessNodelet::checkMessage(const sensor_msgs::PointCloud2& msg) const
@@ -155,22 +126,9 @@ int CloudPreprocessNodelet::fieldOffset(const sensor_msgs::PointCloud2& msg, con
   return -1;
 }
 
-void CloudPreprocessNodelet::cloudCallback(const sensor_msgs::PointCloud2::ConstPtr& msg)
+void CloudPreprocessNodelet::process(const InputConstPtr& input)
 {
-  // Exceptions must not escape into the nodelet manager's callback queue.
-  try
-  {
-    process(*msg);
-  }
-  catch (const std::exception& e)
-  {
-    NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
-    status_.error(std::string("unexpected exception: ") + e.what());
-  }
-}
-
-void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
-{
+  const sensor_msgs::PointCloud2& msg = *input;
   if (const std::string bad = checkMessage(msg); !bad.empty())
   {
     NODELET_ERROR_THROTTLE(5.0, "rejected input: %s", bad.c_str());
@@ -218,12 +176,7 @@ void CloudPreprocessNodelet::process(const sensor_msgs::PointCloud2& msg)
   const CloudXYZ::Ptr cloud = result.cloud;
   const boost::shared_ptr<CloudXYZ> output = toBoost(cloud);
   output_pub_.publish(output);
-  if (publish_address_)
-  {
-    std_msgs::UInt64 address;
-    address.data = reinterpret_cast<std::uintptr_t>(output.get());
-    sent_address_pub_.publish(address);
-  }
+  publishSentAddress(output.get());
   std::ostringstream summary;
   summary << result.input_points << " raw points (" << result.finite_points << " finite, " << result.in_reach_points
           << " sampled in reach) -> " << output->size() << " points in " << base_frame_;

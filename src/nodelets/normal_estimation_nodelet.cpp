@@ -1,16 +1,13 @@
 // fast_grasp/NormalEstimation: k-NN normals of the object cloud oriented toward the camera, and
 // their k-d-tree down-sampling (thesis Ch6.2 steps 2-3). Thin wrapper around estimateNormals().
 #include "fast_grasp/cloud_checks.h"
-#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/normal_estimation.h"
 
-#include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_conversions/pcl_conversions.h>
-#include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <std_msgs/UInt64.h>
 #include <visualization_msgs/Marker.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -21,39 +18,28 @@
 
 namespace fast_grasp
 {
-class NormalEstimationNodelet : public nodelet_topic_tools::NodeletLazy
+class NormalEstimationNodelet : public CloudNodelet<CloudXYZ>
 {
 private:
-  using CloudConstPtr = boost::shared_ptr<const CloudXYZ>;
-  void onInit() override;
-  void subscribe() override;
-  void unsubscribe() override;
-  void cloudCallback(const CloudConstPtr& msg);
-  void process(const CloudConstPtr& msg);
+  std::string readParameters(ros::NodeHandle& pnh) override;
+  void advertiseOutputs(ros::NodeHandle& pnh) override;
+  void process(const InputConstPtr& msg) override;
 
   NormalParams params_;
   double downsample_radius_m_ = 0.01;
   std::string sensor_frame_ = "camera_rgb_optical_frame";
   double tf_timeout_s_ = 0.1;
   int max_input_points_ = 2000000;
-  bool publish_address_ = false;
-  bool params_ok_ = false;
 
-  NodeletStatus status_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
-  ros::Subscriber cloud_sub_;
   ros::Publisher output_pub_;
   ros::Publisher downsampled_pub_;
   ros::Publisher normal_markers_pub_;  // rviz only; not a lazy trigger
-  ros::Publisher received_address_pub_;
-  ros::Publisher sent_address_pub_;
 };
 
-void NormalEstimationNodelet::onInit()
+std::string NormalEstimationNodelet::readParameters(ros::NodeHandle& pnh)
 {
-  NodeletLazy::onInit();
-  ros::NodeHandle& pnh = *pnh_;
   pnh.param("k_neighbours", params_.k_neighbours, params_.k_neighbours);
   int threads = static_cast<int>(params_.threads);
   pnh.param("threads", threads, threads);
@@ -62,9 +48,7 @@ void NormalEstimationNodelet::onInit()
   pnh.param("sensor_frame", sensor_frame_, sensor_frame_);
   pnh.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
   pnh.param("max_input_points", max_input_points_, max_input_points_);
-  pnh.param("publish_address", publish_address_, publish_address_);
 
-  status_.init(*nh_, pnh, getName());
   std::string bad;
   if (params_.k_neighbours < 3)
     bad = "k_neighbours must be >= 3";
@@ -77,61 +61,23 @@ void NormalEstimationNodelet::onInit()
   else if (max_input_points_ < 1)
     bad = "max_input_points must be >= 1";
   params_.threads = static_cast<unsigned int>(std::max(threads, 1));
-  params_ok_ = bad.empty();
-  if (!params_ok_)
-  {
-    NODELET_ERROR("Initialization failed: %s", bad.c_str());
-    status_.error("initialization failed: " + bad);
-    return;
-  }
+  if (!bad.empty())
+    return bad;
   NODELET_DEBUG("k_neighbours %d, downsample_radius_m %.4f, sensor_frame %s", params_.k_neighbours,
                 downsample_radius_m_, sensor_frame_.c_str());
+  return {};
+}
 
+void NormalEstimationNodelet::advertiseOutputs(ros::NodeHandle& pnh)
+{
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
   output_pub_ = advertise<CloudNormal>(pnh, "output", 1);
   downsampled_pub_ = advertise<CloudNormal>(pnh, "downsampled", 1);
   normal_markers_pub_ = pnh.advertise<visualization_msgs::Marker>("normal_markers", 1);
-  if (publish_address_)
-  {
-    received_address_pub_ = pnh.advertise<std_msgs::UInt64>("received_address", 10);
-    sent_address_pub_ = pnh.advertise<std_msgs::UInt64>("sent_address", 10);
-  }
-  onInitPostProcess();
 }
 
-void NormalEstimationNodelet::subscribe()
+void NormalEstimationNodelet::process(const InputConstPtr& msg)
 {
-  if (params_ok_)
-    cloud_sub_ = nh_->subscribe("input", 1, &NormalEstimationNodelet::cloudCallback, this);
-}
-
-void NormalEstimationNodelet::unsubscribe()
-{
-  cloud_sub_.shutdown();
-}
-
-void NormalEstimationNodelet::cloudCallback(const CloudConstPtr& msg)
-{
-  // Exceptions must not escape into the nodelet manager's callback queue.
-  try
-  {
-    process(msg);
-  }
-  catch (const std::exception& e)
-  {
-    NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
-    status_.error(std::string("unexpected exception: ") + e.what());
-  }
-}
-
-void NormalEstimationNodelet::process(const CloudConstPtr& msg)
-{
-  if (publish_address_)
-  {
-    std_msgs::UInt64 address;
-    address.data = reinterpret_cast<std::uintptr_t>(msg.get());
-    received_address_pub_.publish(address);
-  }
   // Zero-copy view for the core: the std::shared_ptr keeps the boost one alive.
   const CloudXYZ::ConstPtr cloud = toStd(msg);
   const CloudCheck check = checkCloud<PointXYZ>(cloud, static_cast<std::size_t>(max_input_points_));
@@ -203,12 +149,7 @@ void NormalEstimationNodelet::process(const CloudConstPtr& msg)
     }
     normal_markers_pub_.publish(lines);
   }
-  if (publish_address_)
-  {
-    std_msgs::UInt64 address;
-    address.data = reinterpret_cast<std::uintptr_t>(dense.get());
-    sent_address_pub_.publish(address);
-  }
+  publishSentAddress(dense.get());
   std::ostringstream summary;
   summary << dense->size() << " normals (" << downsampled->size() << " down-sampled at " << downsample_radius_m_
           << " m) from " << msg->size() << " points";

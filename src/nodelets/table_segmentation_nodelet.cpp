@@ -1,16 +1,13 @@
 // fast_grasp/TableSegmentation: RANSAC table, clusters above it, target object choice
 // (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around segmentTable().
 #include "fast_grasp/cloud_checks.h"
-#include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/table_segmentation.h"
 
 #include <fast_grasp/SegmentedScene.h>
-#include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_conversions/pcl_conversions.h>
-#include <pcl_ros/point_cloud.h>
 #include <pluginlib/class_list_macros.hpp>
-#include <std_msgs/UInt64.h>
 
 #include <memory>
 #include <sstream>
@@ -35,36 +32,25 @@ bool readVector3(ros::NodeHandle& pnh, const std::string& name, Eigen::Vector3f&
 }
 }  // namespace
 
-class TableSegmentationNodelet : public nodelet_topic_tools::NodeletLazy
+class TableSegmentationNodelet : public CloudNodelet<CloudXYZ>
 {
 private:
-  using CloudConstPtr = boost::shared_ptr<const CloudXYZ>;
-  void onInit() override;
-  void subscribe() override;
-  void unsubscribe() override;
-  void cloudCallback(const CloudConstPtr& msg);
-  void process(const CloudConstPtr& msg);
+  std::string readParameters(ros::NodeHandle& pnh) override;
+  void advertiseOutputs(ros::NodeHandle& pnh) override;
+  void process(const InputConstPtr& msg) override;
   void publishScene(const CloudXYZ& input, const TableSegmentationResult& result, const std::string& status);
 
   TableSegmentationParams params_;
   int max_input_points_ = 2000000;
-  bool publish_address_ = false;
-  bool params_ok_ = false;
 
-  NodeletStatus status_;
-  ros::Subscriber cloud_sub_;
   ros::Publisher object_pub_;
   ros::Publisher scene_pub_;
   ros::Publisher table_pub_;
   ros::Publisher segmented_scene_pub_;
-  ros::Publisher received_address_pub_;
-  ros::Publisher sent_address_pub_;
 };
 
-void TableSegmentationNodelet::onInit()
+std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
 {
-  NodeletLazy::onInit();
-  ros::NodeHandle& pnh = *pnh_;
   pnh.param("plane_distance_m", params_.plane_distance_m, params_.plane_distance_m);
   pnh.param("ransac_max_iterations", params_.ransac_max_iterations, params_.ransac_max_iterations);
   pnh.param("max_table_tilt_rad", params_.max_table_tilt_rad, params_.max_table_tilt_rad);
@@ -77,11 +63,9 @@ void TableSegmentationNodelet::onInit()
   pnh.param("merge_stacked_clusters", params_.merge_stacked_clusters, params_.merge_stacked_clusters);
   pnh.param("stacked_overlap_fraction", params_.stacked_overlap_fraction, params_.stacked_overlap_fraction);
   pnh.param("max_input_points", max_input_points_, max_input_points_);
-  pnh.param("publish_address", publish_address_, publish_address_);
   std::string target = toString(params_.target);
   pnh.param("target_cluster", target, target);
 
-  status_.init(*nh_, pnh, getName());
   std::string bad;
   if (!parseTargetCluster(target, params_.target))
     bad = "target_cluster '" + target + "' is not one of nearest | largest | closest_to_point";
@@ -101,61 +85,23 @@ void TableSegmentationNodelet::onInit()
     if (probe.reason.rfind("invalid parameters", 0) == 0)
       bad = probe.reason;
   }
-  params_ok_ = bad.empty();
-  if (!params_ok_)
-  {
-    NODELET_ERROR("Initialization failed: %s", bad.c_str());
-    status_.error("initialization failed: " + bad);
-    return;
-  }
+  if (!bad.empty())
+    return bad;
   NODELET_DEBUG("plane_distance_m %.4f, cluster_tolerance_m %.3f, target %s", params_.plane_distance_m,
                 params_.cluster_tolerance_m, toString(params_.target));
+  return {};
+}
 
+void TableSegmentationNodelet::advertiseOutputs(ros::NodeHandle& pnh)
+{
   object_pub_ = advertise<CloudXYZ>(pnh, "object", 1);
   scene_pub_ = advertise<CloudXYZ>(pnh, "scene", 1);
   table_pub_ = advertise<CloudXYZ>(pnh, "table", 1);
   segmented_scene_pub_ = advertise<fast_grasp::SegmentedScene>(pnh, "segmented_scene", 1);
-  if (publish_address_)
-  {
-    received_address_pub_ = pnh.advertise<std_msgs::UInt64>("received_address", 10);
-    sent_address_pub_ = pnh.advertise<std_msgs::UInt64>("sent_address", 10);
-  }
-  onInitPostProcess();
 }
 
-void TableSegmentationNodelet::subscribe()
+void TableSegmentationNodelet::process(const InputConstPtr& msg)
 {
-  if (params_ok_)
-    cloud_sub_ = nh_->subscribe("input", 1, &TableSegmentationNodelet::cloudCallback, this);
-}
-
-void TableSegmentationNodelet::unsubscribe()
-{
-  cloud_sub_.shutdown();
-}
-
-void TableSegmentationNodelet::cloudCallback(const CloudConstPtr& msg)
-{
-  // Exceptions must not escape into the nodelet manager's callback queue.
-  try
-  {
-    process(msg);
-  }
-  catch (const std::exception& e)
-  {
-    NODELET_ERROR_THROTTLE(5.0, "unexpected exception: %s", e.what());
-    status_.error(std::string("unexpected exception: ") + e.what());
-  }
-}
-
-void TableSegmentationNodelet::process(const CloudConstPtr& msg)
-{
-  if (publish_address_)
-  {
-    std_msgs::UInt64 address;
-    address.data = reinterpret_cast<std::uintptr_t>(msg.get());
-    received_address_pub_.publish(address);
-  }
   // Zero-copy view for the core: the std::shared_ptr keeps the boost one alive.
   const CloudXYZ::ConstPtr cloud = toStd(msg);
   const CloudCheck check = checkCloud<PointXYZ>(cloud, static_cast<std::size_t>(max_input_points_));
@@ -182,12 +128,7 @@ void TableSegmentationNodelet::process(const CloudConstPtr& msg)
   {
     const boost::shared_ptr<CloudXYZ> object = toBoost(result.object);
     object_pub_.publish(object);
-    if (publish_address_)
-    {
-      std_msgs::UInt64 address;
-      address.data = reinterpret_cast<std::uintptr_t>(object.get());
-      sent_address_pub_.publish(address);
-    }
+    publishSentAddress(object.get());
   }
   publishScene(*msg, result, status);
   switch (result.failure)

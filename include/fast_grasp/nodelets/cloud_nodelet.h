@@ -1,0 +1,156 @@
+// Shared ROS wrapper for the perception nodelets (in the spirit of GraspPlannerNodelet and
+// pcl_ros's PCLNodelet): the subclasses only read and validate their parameters, advertise
+// their outputs and process() one input. Everything else — lazy subscription, the
+// initialization-failure report, the exception guard around the callback, ~status and
+// /diagnostics, the zero-copy address topics — lives here once.
+#pragma once
+
+#include "fast_grasp/nodelets/nodelet_status.h"
+
+#include <nodelet_topic_tools/nodelet_lazy.h>
+#include <pcl_ros/point_cloud.h>
+#include <ros/ros.h>
+#include <std_msgs/UInt64.h>
+
+#include <boost/shared_ptr.hpp>
+
+#include <cstdint>
+#include <exception>
+#include <string>
+#include <type_traits>
+
+namespace fast_grasp
+{
+/// Runs `work()`. Exceptions must not escape into the nodelet manager's callback queue:
+/// one is logged (as the nodelet `name`) and reported on `status` instead.
+template <typename Work>
+void reportExceptions(const std::string& name, NodeletStatus& status, Work&& work)
+{
+  try
+  {
+    work();
+  }
+  catch (const std::exception& e)
+  {
+    ROS_ERROR_THROTTLE_NAMED(5.0, name, "unexpected exception: %s", e.what());
+    status.error(std::string("unexpected exception: ") + e.what());
+  }
+}
+
+/// Start-up shared by every perception nodelet, whatever its inputs.
+class CloudNodeletBase : public nodelet_topic_tools::NodeletLazy
+{
+protected:
+  /// Reads and validates the private parameters (called once, in onInit). Empty when they
+  /// are usable, else why not: the nodelet then logs "Initialization failed: <why>", reports
+  /// "initialization failed: <why>" on ~status, advertises nothing and so never subscribes.
+  virtual std::string readParameters(ros::NodeHandle& private_nh) = 0;
+  /// Advertises the outputs (with NodeletLazy::advertise for those that drive the lazy
+  /// subscription) and sets up what needs valid parameters, e.g. a tf listener.
+  virtual void advertiseOutputs(ros::NodeHandle& private_nh) = 0;
+
+  bool paramsOk() const { return params_ok_; }
+
+  NodeletStatus status_;
+
+private:
+  void onInit() final
+  {
+    NodeletLazy::onInit();
+    ros::NodeHandle& pnh = *pnh_;
+    status_.init(*nh_, pnh, getName());
+    const std::string bad = readParameters(pnh);
+    params_ok_ = bad.empty();
+    if (!params_ok_)
+    {
+      NODELET_ERROR("Initialization failed: %s", bad.c_str());
+      status_.error("initialization failed: " + bad);
+      return;
+    }
+    advertiseOutputs(pnh);
+    advertiseAddressTopics(pnh);
+    onInitPostProcess();
+  }
+
+  /// CloudNodelet's zero-copy check topics.
+  virtual void advertiseAddressTopics(ros::NodeHandle& /*private_nh*/) {}
+
+  bool params_ok_ = false;
+};
+
+template <typename T>
+struct IsPclCloud : std::false_type
+{
+};
+template <typename PointT>
+struct IsPclCloud<pcl::PointCloud<PointT>> : std::true_type
+{
+};
+
+/// A perception nodelet with one input, "input" (queue 1), subscribed while someone listens
+/// to an output. InputT is a pcl::PointCloud<PointT>, passed zero-copy inside a manager
+/// (pcl_ros/point_cloud.h), or a sensor_msgs::PointCloud2.
+///
+/// With ~publish_address, ~sent_address carries the address of each cloud published through
+/// publishSentAddress() and, for pcl::PointCloud inputs, ~received_address that of each
+/// input cloud: the zero-copy rostest checks that the two ends of a hand-over match.
+template <typename InputT>
+class CloudNodelet : public CloudNodeletBase
+{
+public:
+  using Input = InputT;
+  using InputConstPtr = boost::shared_ptr<const InputT>;
+
+protected:
+  /// Handles one input. Report the outcome on status_; exceptions are caught by the caller.
+  virtual void process(const InputConstPtr& input) = 0;
+
+  /// With ~publish_address, publishes the address of an output cloud on ~sent_address.
+  void publishSentAddress(const void* cloud) { publishAddress(sent_address_pub_, cloud); }
+
+private:
+  static constexpr bool kZeroCopyInput = IsPclCloud<InputT>::value;
+
+  void advertiseAddressTopics(ros::NodeHandle& private_nh) final
+  {
+    private_nh.param("publish_address", publish_address_, publish_address_);
+    if (!publish_address_)
+      return;
+    if (kZeroCopyInput)
+      received_address_pub_ = private_nh.advertise<std_msgs::UInt64>("received_address", 10);
+    sent_address_pub_ = private_nh.advertise<std_msgs::UInt64>("sent_address", 10);
+  }
+
+  void subscribe() override
+  {
+    if (paramsOk())
+      input_sub_ = nh_->subscribe("input", 1, &CloudNodelet::inputCallback, this);
+  }
+
+  void unsubscribe() override { input_sub_.shutdown(); }
+
+  void inputCallback(const InputConstPtr& input)
+  {
+    reportExceptions(getName(), status_, [&] {
+      if (kZeroCopyInput)
+        publishAddress(received_address_pub_, input.get());
+      process(input);
+    });
+  }
+
+  void publishAddress(ros::Publisher& pub, const void* cloud)
+  {
+    if (!publish_address_)
+      return;
+    std_msgs::UInt64 address;
+    address.data = reinterpret_cast<std::uintptr_t>(cloud);
+    pub.publish(address);
+  }
+
+  bool publish_address_ = false;
+  ros::Subscriber input_sub_;
+  ros::Publisher received_address_pub_;
+  ros::Publisher sent_address_pub_;
+};
+
+}  // namespace fast_grasp
