@@ -31,6 +31,15 @@ CShapeParams exhaustiveParams()
   return params;
 }
 
+/// One camera's view of `shape` standing on the table z = 0 (the view's table plane).
+ObjectView viewOnTable(const Shape& shape, const Eigen::Vector3d& viewpoint)
+{
+  ObjectView view = makeObjectView(renderView(shape, ViewParams{ viewpoint }), viewpoint);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
 CShapePose cshapePoseOf(const GraspCandidate& grasp)
 {
   CShapePose pose;
@@ -218,11 +227,8 @@ TEST(CShapeGrasp, CylinderOnATableIsGraspedAcrossItsDiameterThroughTheAxis)
   const GripperModel gripper = loadGripper("robotiq_2f85");
   const double radius = 0.03;
   const Eigen::Vector3d viewpoint(0.6, 0.1, 0.5);
-  const CloudNormal::Ptr cloud = renderView(
-      makeCylinder(Eigen::Vector3d(0, 0, 0.075), Eigen::Vector3d::UnitZ(), radius, 0.15), ViewParams{ viewpoint });
-  ObjectView view = makeObjectView(cloud, viewpoint);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  ObjectView view =
+      viewOnTable(makeCylinder(Eigen::Vector3d(0, 0, 0.075), Eigen::Vector3d::UnitZ(), radius, 0.15), viewpoint);
   CShapeParams params = exhaustiveParams();
   // The Robotiq's palm stands only 2 cm behind the closing line: with the arm-consistent 1.1 cm
   // clearance the 3 cm radius would need more back-off than the fingers allow.
@@ -402,11 +408,7 @@ TEST(CShapeGrasp, GripperBodyStaysAboveTheTable)
   const GripperModel gripper = loadGripper("lacquey_fetch");
   const Eigen::Vector3d centre(0.0, 0.0, 0.06);
   const Eigen::Vector3d viewpoint = centre + 0.6 * Eigen::Vector3d(std::sqrt(0.5), 0.0, std::sqrt(0.5));
-  const CloudNormal::Ptr cloud =
-      renderView(makeCylinder(centre, Eigen::Vector3d::UnitZ(), 0.03, 0.12), ViewParams{ viewpoint });
-  ObjectView view = makeObjectView(cloud, viewpoint);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  ObjectView view = viewOnTable(makeCylinder(centre, Eigen::Vector3d::UnitZ(), 0.03, 0.12), viewpoint);
 
   CShapeParams params = exhaustiveParams();
   params.table_clearance_m = 0.01;
@@ -445,11 +447,7 @@ TEST(CShapeGrasp, LowBarIsGraspedWithTheFingertipsAboveTheTable)
   const GripperModel gripper = loadGripper("lacquey_fetch");
   const Eigen::Vector3d centre(0.0, 0.0, 0.015);
   const Eigen::Vector3d viewpoint = centre + 0.6 * Eigen::Vector3d(0.0, 0.5, std::sqrt(0.75));
-  const CloudNormal::Ptr cloud =
-      renderView(makeBox(centre, Eigen::Vector3d(0.25, 0.03, 0.03)), ViewParams{ viewpoint });
-  ObjectView view = makeObjectView(cloud, viewpoint);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  ObjectView view = viewOnTable(makeBox(centre, Eigen::Vector3d(0.25, 0.03, 0.03)), viewpoint);
 
   CShapeParams thesis_only = exhaustiveParams();
   thesis_only.min_fingertip_overlap_m = -1.0;
@@ -491,11 +489,7 @@ TEST(CShapeGrasp, TallBoxWiderThanTheOpeningIsTakenByItsTopEdge)
   const double elevation = 50.0 * M_PI / 180.0;
   const Eigen::Vector3d viewpoint =
       Eigen::Vector3d(0.0, 0.0, 0.08) + 0.6 * Eigen::Vector3d(0.0, std::cos(elevation), std::sin(elevation));
-  const CloudNormal::Ptr cloud =
-      renderView(makeBox(centre, Eigen::Vector3d(0.16, 0.06, 0.21)), ViewParams{ viewpoint });
-  ObjectView view = makeObjectView(cloud, viewpoint);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  ObjectView view = viewOnTable(makeBox(centre, Eigen::Vector3d(0.16, 0.06, 0.21)), viewpoint);
 
   CShapeParams thesis_only = exhaustiveParams();
   thesis_only.min_fingertip_overlap_m = -1.0;
