@@ -68,6 +68,7 @@ class GraspPipelineTest(unittest.TestCase):
         cls.trajectories = []
         cls.executed = {}  # stamp ns -> pose the trajectory ends at (a flipped / tilted variant)
         cls.arm_statuses = []
+        cls.ok_statuses = []  # OK statuses not yet paired with a trajectory
         cls.scenes = {}
         rospy.Subscriber("/normal_estimation/output", PointCloud2, cls.on_object, queue_size=5)
         if cls.check_trajectory:
@@ -108,7 +109,8 @@ class GraspPipelineTest(unittest.TestCase):
     @classmethod
     def on_trajectory(cls, msg):
         with cls.lock:
-            cls.trajectories.append((msg, cls.arm_statuses[-1] if cls.arm_statuses else ""))
+            cls.trajectories.append((msg, ""))
+            cls.pair_statuses()
 
     @classmethod
     def on_executed(cls, msg):
@@ -119,9 +121,18 @@ class GraspPipelineTest(unittest.TestCase):
     def on_arm_status(cls, msg):
         with cls.lock:
             cls.arm_statuses.append(msg.data)
-            # The trajectory is published just before its status: attach the status late.
-            if cls.trajectories and not cls.trajectories[-1][1]:
-                cls.trajectories[-1] = (cls.trajectories[-1][0], msg.data)
+            if msg.data.startswith("OK"):
+                cls.ok_statuses.append(msg.data)
+            cls.pair_statuses()
+
+    @classmethod
+    def pair_statuses(cls):
+        """Every plan publishes one OK status and one trajectory, in plan order, but on two
+        topics whose messages may overtake each other: pair them first-in, first-out (caller
+        holds the lock)."""
+        for i, (traj, status) in enumerate(cls.trajectories):
+            if not status and cls.ok_statuses:
+                cls.trajectories[i] = (traj, cls.ok_statuses.pop(0))
 
     @classmethod
     def on_grasps(cls, msg, name):
