@@ -149,6 +149,9 @@ PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section)
   reader.readCount("min_points", p.min_points, 1);
   reader.read("two_camera_mode", p.two_camera_mode);
   reader.readPositive("virtual_view_step_rad", p.virtual_view_step_rad);
+  reader.read("next_view_from_above", p.next_view_from_above);
+  reader.readNonNegative("next_view_min_turn_rad", p.next_view_min_turn_rad);
+  reader.readNonNegative("next_view_max_face_rms_ratio", p.next_view_max_face_rms_ratio);
   reader.readCount("max_grasps", p.max_grasps, 1);
   p.gripper_fit = gripperFitFromYaml(reader, "principal_axis");
   reader.rejectUnknownKeys();

@@ -159,12 +159,18 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
         backoff = std::max(backoff, (table_clearance - lowest) / -descent + 1e-5f);
       if (descent >= -1e-3f || backoff > max_backoff)
       {
+        // Report the height the hand can reach, not the one the needed back-off would give.
         std::ostringstream why;
-        why << "the open hand would reach " << lowest - backoff * descent << " m above the table (< gripper_fit/"
-            << "table_clearance_m " << table_clearance << ")"
-            << (descent < -1e-3f ? " within gripper_fit/max_backoff_m" : " and backing out does not raise it");
+        if (descent < -1e-3f)
+          why << "the open hand stays " << lowest - max_backoff * descent << " m above the table at the largest "
+              << "back-off gripper_fit/max_backoff_m " << max_backoff << " (needs " << table_clearance
+              << " m, table_clearance_m; backing out " << backoff << " m would give it)";
+        else
+          why << "the open hand would reach " << lowest - backoff * descent << " m above the table (< gripper_fit/"
+              << "table_clearance_m " << table_clearance << ") and backing out does not raise it";
         result.why = why.str();
         result.backoff_m = backoff;
+        result.blocked_by_table = true;
         return result;
       }
     }
@@ -203,8 +209,10 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
 }
 
 std::size_t GripperVolumeCheck::filter(std::vector<GraspCandidate>& grasps, std::string* why,
-                                       std::size_t max_kept) const
+                                       std::size_t max_kept, std::size_t* blocked_by_table) const
 {
+  if (blocked_by_table)
+    *blocked_by_table = 0;
   if (!params_.enabled)
   {
     if (grasps.size() > max_kept)
@@ -227,6 +235,8 @@ std::size_t GripperVolumeCheck::filter(std::vector<GraspCandidate>& grasps, std:
     }
     if (dropped++ == 0 && why)
       *why = fitted.why;
+    if (blocked_by_table && fitted.blocked_by_table)
+      ++*blocked_by_table;
   }
   grasps = std::move(kept);
   return dropped;

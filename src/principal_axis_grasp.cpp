@@ -453,6 +453,52 @@ Eigen::Isometry3d lookAtPose(const Eigen::Vector3d& sensor, const Eigen::Vector3
   return pose;
 }
 
+/// The main plane of Ch3.2.3 as seen in the XOZ plane: the total-least-squares line through
+/// an area's (x, z) points, the area's width along it and the RMS distance of the points from
+/// it (small for a flat face, about 0.15 of the width for a seen half cylinder or sphere).
+struct MainPlane
+{
+  Eigen::Vector2d trace = Eigen::Vector2d::UnitX();
+  double width_m = 0.0;
+  double rms_m = 0.0;
+};
+
+MainPlane fitMainPlane(const std::vector<Eigen::Vector2d>& area_xz)
+{
+  MainPlane plane;
+  if (area_xz.size() < 2)
+    return plane;
+  plane.trace = fitLineDirection(area_xz).normalized();
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& q : area_xz)
+    mean += q;
+  mean /= static_cast<double>(area_xz.size());
+  const Eigen::Vector2d normal(-plane.trace.y(), plane.trace.x());
+  double low = std::numeric_limits<double>::infinity(), high = -low, squares = 0.0;
+  for (const auto& q : area_xz)
+  {
+    low = std::min(low, q.dot(plane.trace));
+    high = std::max(high, q.dot(plane.trace));
+    squares += std::pow((q - mean).dot(normal), 2);
+  }
+  plane.width_m = high - low;
+  plane.rms_m = std::sqrt(squares / static_cast<double>(area_xz.size()));
+  return plane;
+}
+
+/// Eq. 3.6: the sensor's look-at pose turned by `phi` about the principal axis through the
+/// centroid. In the object frame a positive phi turns the line of sight Z toward X.
+Eigen::Isometry3d viewTurnedAboutAxis(const Eigen::Vector3f& sensor, const Eigen::Vector3f& centroid,
+                                      const Eigen::Vector3f& axis, const Eigen::Vector3f& gravity, double phi)
+{
+  const Eigen::Vector3d centre = centroid.cast<double>();
+  const Eigen::Isometry3d current = lookAtPose(sensor.cast<double>(), centre, gravity.cast<double>());
+  Eigen::Isometry3d about_axis = Eigen::Isometry3d::Identity();
+  about_axis.linear() = Eigen::AngleAxisd(phi, axis.cast<double>().normalized()).toRotationMatrix();
+  about_axis.translation() = centre - about_axis.linear() * centre;
+  return about_axis * current;
+}
+
 std::string formatNumber(double value)
 {
   std::ostringstream out;
@@ -562,6 +608,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
 
   GraspResult result;
   std::vector<Eigen::Vector3f> scratch;
+  std::size_t table_blocked = 0;  // stable grasps the hand-fit check dropped because of the table
   // The real hand's volume (gripper_volume.h) at the stable grasps (result.grasps, sorted),
   // best first, until max_grasps fit (the rest are cut); built only when there is something
   // to check. Returns the failure when stable grasps existed but the hand fits at none.
@@ -579,7 +626,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
       check.setTable(view.table_plane);
     const std::size_t stable = grasps.size();
     std::string why;
-    check.filter(grasps, &why, p.max_grasps);
+    check.filter(grasps, &why, p.max_grasps, &table_blocked);
     if (!grasps.empty())
       return std::nullopt;
     return GraspResult::fail(GraspFailure::NoStableGrasp, std::string(label) + ": " + std::to_string(stable) +
@@ -638,7 +685,30 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     sortGraspsBestFirst(result.grasps);
     sortGraspsBestFirst(result.candidates);
     if (std::optional<GraspResult> no_fit = fitGripper("principal_axis"))
+    {
+      // Stable grasps the table alone rules out (a low object seen from the side: the hand
+      // approaching along the line of sight closes on a tilted line whose lower finger meets
+      // the table). Beyond the thesis, which moves the camera only for step 7: the same
+      // rotation of Eq. 3.6 about the principal axis, as far as it brings the line of sight
+      // to vertical, lets the next plan approach from above and close level with the table.
+      if (table_blocked > 0 && p.next_view_from_above)
+      {
+        const Eigen::Vector3f up_across = up - up.dot(frame.y) * frame.y;
+        const double phi = std::atan2(up_across.dot(frame.x), up_across.dot(frame.z));
+        if (up_across.norm() > std::sin(p.min_axis_view_angle_rad) && std::abs(phi) >= p.next_view_min_turn_rad)
+        {
+          no_fit->next_view =
+              viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
+          no_fit->message += "; " + std::to_string(table_blocked) + " were stopped by the table: next view from above, "
+                             "rotated by " + formatNumber(std::abs(phi)) + " rad about the principal axis";
+        }
+      }
+      no_fit->hull = std::move(result.hull);
+      no_fit->graspable_zone = std::move(result.graspable_zone);
+      no_fit->candidates = std::move(result.candidates);
+      no_fit->candidates_evaluated = result.candidates_evaluated;
       return finish(std::move(*no_fit));
+    }
     if (!result.grasps.empty())
     {
       result.message = "principal_axis: " + std::to_string(result.grasps.size()) + " grasps, best XOY " +
@@ -664,6 +734,27 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
                        " m opening (median width " + formatNumber(median) + " m, narrowest " +
                        formatNumber(evaluation.narrowest_width_m) + " m) and no finger band of " +
                        formatNumber(gripper.finger_width_m) + " m lies within them clear of the ends";
+      // Thesis risk 2 (the gripper cannot cover the object). When what the camera sees is one
+      // flat face wider than the opening, Fig. 3.11 (b)'s rule still applies: looking along
+      // the face (beta = alpha) shows the object's thickness instead. Curved objects (a
+      // sphere, a wide can) look as wide from every side, so they get no suggestion.
+      std::vector<Eigen::Vector2d> face_xz;
+      for (const Eigen::Vector3f& q : scratch)
+        if (q.y() >= evaluation.grid.y_min + p.end_clearance_m && q.y() <= evaluation.grid.y_max - p.end_clearance_m)
+          face_xz.emplace_back(q.x(), q.z());
+      const MainPlane face = fitMainPlane(face_xz);
+      if (face.width_m > gripper.max_opening_m && face.rms_m < p.next_view_max_face_rms_ratio * face.width_m)
+      {
+        Eigen::Vector2d target = face.trace;  // (x, z): look along the face
+        if (target.y() < 0.0)
+          target = -target;
+        const double phi = std::atan2(target.x(), target.y());
+        result.next_view = viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
+        result.message += "; the seen face (" + formatNumber(face.width_m) + " m wide, " +
+                          formatNumber(face.rms_m * 1000.0) + " mm RMS off flat) is wider than the opening: next view "
+                          "along it, rotated by beta = alpha " + formatNumber(std::abs(phi)) +
+                          " rad about the principal axis";
+      }
       return finish(std::move(result));
     }
     result.failure = GraspFailure::NoStableGrasp;
@@ -687,14 +778,9 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
       if (r >= best_xoy->first_row && r <= best_xoy->last_row)
         area_xz.emplace_back(q.x(), q.z());
     }
-    const Eigen::Vector2d trace = fitLineDirection(area_xz).normalized();
-    double low = std::numeric_limits<double>::infinity(), high = -low;
-    for (const auto& q : area_xz)
-    {
-      low = std::min(low, q.dot(trace));
-      high = std::max(high, q.dot(trace));
-    }
-    const double main_plane_width_m = area_xz.empty() ? 0.0 : high - low;
+    const MainPlane main_plane = fitMainPlane(area_xz);
+    const Eigen::Vector2d& trace = main_plane.trace;
+    const double main_plane_width_m = main_plane.width_m;
     const Eigen::Vector2d sight(0.0, 1.0);  // object Z in (x, z)
     // alpha: angle between the line of sight and the main plane.
     const double alpha = std::acos(std::min(1.0, std::abs(trace.dot(sight))));
@@ -716,13 +802,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
       target = -target;
     // Rotating about Y by phi maps Z to cos(phi) Z + sin(phi) X; |phi| = beta by construction.
     const double phi = std::atan2(target.x(), target.y());
-    const Eigen::Vector3d centroid = pca.centroid.cast<double>();
-    const Eigen::Isometry3d current =
-        lookAtPose(view.sensor_origins.front().cast<double>(), centroid, view.gravity.cast<double>());
-    Eigen::Isometry3d about_axis = Eigen::Isometry3d::Identity();
-    about_axis.linear() = Eigen::AngleAxisd(phi, axis.cast<double>()).toRotationMatrix();  // Eq. 3.6
-    about_axis.translation() = centroid - about_axis.linear() * centroid;
-    result.next_view = about_axis * current;
+    result.next_view = viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
     result.message = "principal_axis: XOZ offset above " + formatNumber(p.xoz_max_offset_m) +
                      " m for every XOY-stable candidate; next view rotated by beta " + formatNumber(beta) +
                      " rad about the principal axis (alpha " + formatNumber(alpha) + " rad, main plane " +

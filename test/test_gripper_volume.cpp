@@ -137,7 +137,14 @@ TEST(GripperVolume, HandFromAboveIsRaisedOffTheTableAndASideHandBelowItIsDropped
   GripperVolumeCheck short_reach(gripper, params);
   short_reach.addSeen(bar);
   short_reach.setTable(Eigen::Vector4f(0, 0, 1, 0));
-  EXPECT_FALSE(short_reach.fit(from_above, 0.03).ok);
+  const GripperFit too_low = short_reach.fit(from_above, 0.03);
+  EXPECT_FALSE(too_low.ok);
+  EXPECT_TRUE(too_low.blocked_by_table);
+  // The reason quotes the height reached at the 3 cm limit (z = -0.03 + 0.03 = 0), not the
+  // 1 cm the needed 4 cm back-off would give.
+  EXPECT_NE(too_low.why.find("at the largest back-off"), std::string::npos) << too_low.why;
+  EXPECT_EQ(too_low.why.find("stays 0.01 m"), std::string::npos) << too_low.why;
+  EXPECT_FALSE(fit.blocked_by_table);
 
   // From the side (approach +x, closing +y) at z = 0.015: the palm, 0.06 m wide across the
   // closing plane (z here), reaches z = -0.015; backing out along x cannot raise it.
@@ -148,6 +155,7 @@ TEST(GripperVolume, HandFromAboveIsRaisedOffTheTableAndASideHandBelowItIsDropped
   side.setTable(Eigen::Vector4f(0, 0, 1, 0));
   const GripperFit dropped = side.fit(from_side, 0.03);
   EXPECT_FALSE(dropped.ok);
+  EXPECT_TRUE(dropped.blocked_by_table);
   EXPECT_NE(dropped.why.find("table"), std::string::npos) << dropped.why;
 }
 

@@ -1,5 +1,6 @@
 // Principal-axis planner (thesis Ch3): analytic shapes with hand-derivable answers.
 #include "fast_grasp/principal_axis_grasp.h"
+#include "fast_grasp/gripper_model.h"
 
 #include "synthetic_views.h"
 
@@ -456,6 +457,83 @@ TEST_P(NextView, IsTheSensorTurnedByBetaAboutThePrincipalAxis)
 
 INSTANTIATE_TEST_SUITE_P(PlankSeenAtAnAngle, NextView,
                          ::testing::Values(NextViewCase{ 0.06, 40.0 }, NextViewCase{ 0.12, 60.0 }));
+
+// Beyond step 7: the other two failures a camera move resolves, each followed by a second plan
+// from the suggested view (the loop an eye-in-hand robot runs).
+
+TEST(NextView, NoGraspableZoneOnAWideFlatFaceLooksAlongTheFaceAndThenGrasps)
+{
+  // Plank 0.015 x 0.12 x 0.18, wide face turned 20 deg from the line of sight: its projection
+  // (0.12 cos 20 + 0.015 sin 20 = 0.118 m) exceeds the Robotiq's 0.085 m at every sweep line.
+  // Fig. 3.11 (b): look along the face, beta = alpha = 90 - 20 = 70 deg; from there the hand
+  // closes across the 0.015 m thickness.
+  const Eigen::Matrix3d yaw = Eigen::AngleAxisd(20.0 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const auto plank = synthetic::makeBox({ 0.5, 0.0, 0.09 }, { 0.015, 0.12, 0.18 }, yaw);
+  synthetic::ViewParams camera;
+  camera.viewpoint = { 0.9, 0.0, 0.3 };
+  const auto cloud = synthetic::renderView(plank, camera);
+  const GraspResult first = PrincipalAxisGraspPlanner().plan(viewOf(cloud, camera.viewpoint), robotiq());
+  ASSERT_EQ(first.failure, GraspFailure::NoGraspableZone) << first.message;
+  ASSERT_TRUE(first.next_view.has_value()) << first.message;
+  const Eigen::Vector3d centroid = centroidOf(*cloud);
+  const Eigen::Vector3d before = camera.viewpoint - centroid;
+  const Eigen::Vector3d after = first.next_view->translation() - centroid;
+  EXPECT_NEAR(after.z(), before.z(), 0.005);  // turned about the vertical principal axis
+  EXPECT_NEAR(angleBetween(horizontal(before), horizontal(after)), 70.0 * kDeg, 3.0 * kDeg);
+  const Eigen::Vector3d tangent = yaw * Eigen::Vector3d::UnitY();
+  EXPECT_LT(angleBetween(horizontal(after), tangent.dot(before) > 0 ? tangent : -tangent), 3.0 * kDeg);
+
+  synthetic::ViewParams moved;
+  moved.viewpoint = first.next_view->translation();
+  const GraspResult second =
+      PrincipalAxisGraspPlanner().plan(viewOf(synthetic::renderView(plank, moved), moved.viewpoint), robotiq());
+  ASSERT_TRUE(second.ok()) << second.message;
+  EXPECT_NEAR(second.grasps.front().width_m, 0.015, 0.003);
+  EXPECT_LT(second.grasps.front().force_balance_rad, 0.1);
+}
+
+TEST(NextView, LowObjectTheTableKeepsFromTheHandIsLookedAtFromAboveAndThenGrasped)
+{
+  // A 4 cm bar (cylinder) lying on the table z = 0, seen from 60 deg above the horizon: the
+  // hand approaching along the line of sight closes on a line tilted 30 deg, and with the
+  // Lacquey's 0.13 m opening its lower finger (0.065 sin 30 = 3.3 cm below the 2 cm high axis,
+  // then the fingertips 4.5 cm further along the approach) is below the table at any allowed
+  // back-off. The axis is horizontal, so the view from above is a turn to a vertical line of
+  // sight at the same distance; from there the hand comes down and closes level.
+  const GripperModel lacquey = loadGripperModel(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/lacquey_fetch.yaml");
+  const Eigen::Vector3d axis = Eigen::Vector3d(0.3, 1.0, 0.0).normalized();
+  const auto bar = synthetic::makeCylinder({ 0.5, 0.0, 0.02 }, axis, 0.02, 0.2);
+  const Eigen::Vector3d side_camera(0.5 - 0.65 * std::cos(60.0 * kDeg), 0.0, 0.02 + 0.65 * std::sin(60.0 * kDeg));
+  auto viewOnTable = [&](const Eigen::Vector3d& viewpoint) {
+    synthetic::ViewParams camera;
+    camera.viewpoint = viewpoint;
+    ObjectView view = viewOf(synthetic::renderView(bar, camera), viewpoint);
+    view.has_table_plane = true;
+    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+    return view;
+  };
+  const ObjectView from_side = viewOnTable(side_camera);
+  const GraspResult first = PrincipalAxisGraspPlanner().plan(from_side, lacquey);
+  ASSERT_EQ(first.failure, GraspFailure::NoStableGrasp) << first.message;
+  EXPECT_NE(first.message.find("table"), std::string::npos) << first.message;
+  ASSERT_TRUE(first.next_view.has_value()) << first.message;
+  // Eq. 3.6 turns the camera about the axis: its offset along the axis (the camera is 8 deg
+  // off the plane perpendicular to the bar) stays, the part across the axis becomes vertical.
+  const Eigen::Vector3d centroid = centroidOf(*from_side.cloud);
+  const Eigen::Vector3d before = side_camera - centroid;
+  const Eigen::Vector3d after = first.next_view->translation() - centroid;
+  EXPECT_NEAR(after.norm(), before.norm(), 0.005);  // turned, not moved away
+  EXPECT_NEAR(after.dot(axis), before.dot(axis), 0.005);
+  EXPECT_LT(angleBetween(after - after.dot(axis) * axis, Eigen::Vector3d::UnitZ()), 3.0 * kDeg);
+  EXPECT_GT(first.next_view->linear().col(2).dot(-after.normalized()), 0.999);  // looks at the bar
+
+  const GraspResult second = PrincipalAxisGraspPlanner().plan(viewOnTable(first.next_view->translation()), lacquey);
+  ASSERT_TRUE(second.ok()) << second.message;
+  const GraspCandidate& grasp = second.grasps.front();
+  EXPECT_NEAR(grasp.width_m, 0.04, 0.004);
+  EXPECT_LT(angleBetween(grasp.approach(), -Eigen::Vector3d::UnitZ()), 5.0 * kDeg);
+  EXPECT_LT(std::abs(grasp.binormal().dot(axis)), std::sin(5.0 * kDeg));  // closes across the bar
+}
 
 // ----------------------------------------------------------------------------------------
 // Two cameras (Ch3.5).

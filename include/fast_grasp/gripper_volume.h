@@ -82,6 +82,7 @@ struct GripperFit
   std::size_t unseen_in_gripper = 0;     // unseen-part points inside it
   std::size_t points_between_fingers = 0;
   double lowest_above_table_m = 0.0;     // lowest hand corner above the table (inf without one)
+  bool blocked_by_table = false;         // rejected because the table is in the way of the open hand
   std::string why;                       // empty when ok
 };
 
@@ -109,9 +110,11 @@ public:
 
   /// Applies fit() to the grasps in order (best first) until `max_kept` fit: kept grasps get
   /// the fitted pose, the rest are removed. Returns how many were checked and dropped and, in
-  /// `why`, the reason of the first dropped one.
+  /// `why`, the reason of the first dropped one; `blocked_by_table` counts the dropped ones the
+  /// table stopped (a planner may then suggest a view from above).
   std::size_t filter(std::vector<GraspCandidate>& grasps, std::string* why = nullptr,
-                     std::size_t max_kept = std::numeric_limits<std::size_t>::max()) const;
+                     std::size_t max_kept = std::numeric_limits<std::size_t>::max(),
+                     std::size_t* blocked_by_table = nullptr) const;
 
   const GripperFitParams& params() const { return params_; }
   /// max_backoff_m, or its automatic value for this gripper.

@@ -47,6 +47,16 @@ struct PrincipalAxisParams
   bool two_camera_mode = true;
   /// Delta theta of Ch3.5.2 between virtual viewpoints.
   double virtual_view_step_rad = 0.1745329;  // 10 degrees
+  /// Beyond the thesis's step-7 rule: when every stable grasp is ruled out by the table (a low
+  /// object seen from the side), suggest the view from above (the rotation of Eq. 3.6 about
+  /// the principal axis that brings the line of sight nearest to vertical).
+  bool next_view_from_above = true;
+  /// Smaller turns are not suggested (the camera already looks from about there).
+  double next_view_min_turn_rad = 0.0873;  // 5 degrees
+  /// No graspable zone (thesis risk 2): the view along the seen face (Fig. 3.11 b) is suggested
+  /// when that face is wider than the opening and flat, its RMS distance from its XOZ line
+  /// below this fraction of its width (a flat face ~0.01-0.03, a seen half cylinder ~0.15).
+  double next_view_max_face_rms_ratio = 0.08;
   /// At most this many grasps are returned (best first).
   std::size_t max_grasps = 20;
   /// Final check with the real hand's volume (gripper_volume.h): palm backed out of the
@@ -98,8 +108,11 @@ std::vector<Eigen::Vector3f> virtualViewpoints(const Eigen::Vector3f& centroid, 
 /// lines, and it also penalises parallel sides that lean against the closing direction.
 /// xoz_offset_m = |Z1 - Z2| of Eq. 3.10 over the contact regions of Eq. 3.9.
 /// Single view: candidates pass the XOY threshold and then the XOZ threshold; they are
-/// ranked by XOY angle (the thesis's step 6). If candidates pass XOY but all fail XOZ,
-/// next_view is the sensor pose rotated about the principal axis by beta of Ch3.2.3.
+/// ranked by XOY angle (the thesis's step 6). next_view, the sensor pose rotated about the
+/// principal axis (Eq. 3.6), is set when another view can resolve the failure: all XOY-stable
+/// candidates fail XOZ (beta of Ch3.2.3); no graspable zone because the seen flat face is
+/// wider than the opening (look along it, beta = alpha); the table stops the hand at every
+/// stable grasp (look from above).
 /// Two cameras: the best XOY candidate of each virtual viewpoint, ranked by XOZ offset
 /// (Eqs. 3.9-3.10); `candidates` holds one entry per virtual viewpoint that had one.
 /// plan() is const and thread-safe.

@@ -1,11 +1,15 @@
-// grasp_offline: runs the perception core and one grasp planner on a bag frame or a PCD file
-// and writes the grasps (base_link, best first) as CSV or JSON. Used for batch evaluation,
-// debugging and by the grasp-success evaluator; docs/offline_tool.md has the formats.
+// grasp_offline: runs the perception core and one grasp planner on a bag frame, a PCD file or a
+// scene YAML rendered on the spot, and writes the grasps (base_link, best first) as CSV or JSON.
+// With a scene it can follow the principal-axis planner's next view (Ch3.2.3): render the scene
+// again from the suggested camera pose and plan again, as an eye-in-hand robot would after
+// moving its camera. Used for batch evaluation, debugging and by the grasp-success evaluator;
+// docs/offline_tool.md has the formats.
 //
 // Exit codes: 0 grasps written; 1 a typed failure (one line on stderr; JSON output still
 // carries the status); 2 bad arguments (usage on stderr).
 #include "bag_frames.h"
 #include "offline_pipeline.h"
+#include "scene_description.h"
 
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_planner_params.h"
@@ -19,6 +23,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -42,6 +47,7 @@ constexpr int kExitUsage = 2;
 const char* const kUsage =
     "usage: grasp_offline --bag FILE [--topic T] [--frame N]\n"
     "                   | --pcd FILE --viewpoint x,y,z [--table a,b,c,d] [--already-segmented]\n"
+    "                   | --scene FILE.yaml [--ycb-dir DIR] [--follow-next-view N]\n"
     "                     [--algorithm principal_axis|cshape] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
     "                     [--save-object FILE.pcd]\n"
@@ -53,6 +59,10 @@ const char* const kUsage =
     "  --viewpoint x,y,z    camera optical centre in base_link (required with --pcd)\n"
     "  --table a,b,c,d      table plane a*x+b*y+c*z+d=0 in base_link (replaces the fitted one)\n"
     "  --already-segmented  the PCD holds the object only: no table fit, no clustering\n"
+    "  --scene FILE         scene YAML (config/scenes/), rendered from its cameras as render_bag does\n"
+    "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
+    "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
+    "                       (principal_axis, Ch3.2.3) and plan again (default 0)\n"
     "  --algorithm A        principal_axis (default) or cshape\n"
     "  --gripper G          config/grippers/G.yaml or a YAML file (default lacquey_fetch)\n"
     "  --params FILE        planner parameters (default config/grasp_planners.yaml)\n"
@@ -70,6 +80,9 @@ struct Options
   std::optional<Eigen::Vector3f> viewpoint;
   std::optional<Eigen::Vector4f> table_plane;
   bool already_segmented = false;
+  std::string scene_path;
+  std::string ycb_dir;  // empty: $FAST_GRASP_YCB_DIR
+  int follow_next_view = 0;
   std::string algorithm = "principal_axis";
   std::string gripper = "lacquey_fetch";
   std::string params_path = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml";
@@ -154,6 +167,12 @@ Options parseOptions(int argc, char** argv)
     }
     else if (flag == "--pcd")
       options.pcd_path = value;
+    else if (flag == "--scene")
+      options.scene_path = value;
+    else if (flag == "--ycb-dir")
+      options.ycb_dir = value;
+    else if (flag == "--follow-next-view")
+      options.follow_next_view = static_cast<int>(parseInteger(flag, value, 0));
     else if (flag == "--viewpoint")
     {
       const auto v = parseList(flag, value, 3);
@@ -183,12 +202,15 @@ Options parseOptions(int argc, char** argv)
     else
       throw UsageError("unknown option '" + flag + "'");
   }
-  if (options.bag_path.empty() == options.pcd_path.empty())
-    throw UsageError("give exactly one of --bag and --pcd");
-  if (!options.bag_path.empty() && (options.viewpoint || options.table_plane || options.already_segmented))
+  const int inputs = !options.bag_path.empty() + !options.pcd_path.empty() + !options.scene_path.empty();
+  if (inputs != 1)
+    throw UsageError("give exactly one of --bag, --pcd and --scene");
+  if (options.pcd_path.empty() && (options.viewpoint || options.table_plane || options.already_segmented))
     throw UsageError("--viewpoint, --table and --already-segmented go with --pcd");
-  if (!options.pcd_path.empty() && (have_topic || have_frame))
+  if (options.bag_path.empty() && (have_topic || have_frame))
     throw UsageError("--topic and --frame go with --bag");
+  if (options.scene_path.empty() && (!options.ycb_dir.empty() || options.follow_next_view > 0))
+    throw UsageError("--ycb-dir and --follow-next-view go with --scene");
   if (!options.pcd_path.empty() && !options.viewpoint)
     throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
   if (options.algorithm != "principal_axis" && options.algorithm != "cshape")
@@ -287,6 +309,51 @@ std::vector<SensorCloud> readPcdInput(const Options& options)
   sensor.xyz_cloud = cloud;
   sensor.sensor_origin = options.viewpoint;  // the points are in base_link already
   return { sensor };
+}
+
+/// A scene YAML ready to render: the description and a renderer built once for every view.
+struct SceneInput
+{
+  SceneDescription scene;
+  std::unique_ptr<XtionRenderer> renderer;
+};
+
+SceneInput loadSceneInput(const Options& options)
+{
+  if (!fs::is_regular_file(options.scene_path))
+    failInput("no such file: " + options.scene_path);
+  std::string ycb_dir = options.ycb_dir;
+  if (ycb_dir.empty() && std::getenv("FAST_GRASP_YCB_DIR"))
+    ycb_dir = std::getenv("FAST_GRASP_YCB_DIR");
+  try
+  {
+    SceneInput input;
+    input.scene = loadSceneDescription(options.scene_path, ycb_dir);
+    input.renderer = std::make_unique<XtionRenderer>(input.scene.parts);
+    return input;
+  }
+  catch (const std::exception& e)  // yaml-cpp and the mesh loader report by exception
+  {
+    failInput(options.scene_path + ": " + e.what());
+  }
+}
+
+/// The scene's cameras rendered as render_bag renders a bag's first frame (same seeds, so view
+/// 0 is the bundled bag's frame 0), the hand camera (the first) placed at `hand_pose`; view k > 0
+/// gets its own noise seed. A second (head) camera stays where the scene puts it (Ch3.5).
+std::vector<SensorCloud> renderSceneViews(const SceneInput& input, const Eigen::Isometry3d& hand_pose, int view)
+{
+  std::vector<SensorCloud> clouds;
+  for (std::size_t c = 0; c < input.scene.cameras.size(); ++c)
+  {
+    const Eigen::Isometry3d pose = c == 0 ? hand_pose : input.scene.cameras[c].optical_pose;
+    const std::uint64_t seed = input.scene.seed * 1000 + c * 100 + (c == 0 && view > 0 ? 50 + view : 0);
+    SensorCloud sensor;
+    sensor.rgb_cloud = organisedCloud(input.renderer->render(pose, seed));
+    sensor.cloud_to_base = pose.cast<float>();
+    clouds.push_back(sensor);
+  }
+  return clouds;
 }
 
 GripperModel loadGripper(const std::string& name_or_file)
@@ -419,6 +486,16 @@ struct Report
   };
   std::optional<ObjectSummary> object;
   std::vector<GraspCandidate> grasps;
+  /// The planner's suggested camera pose (optical frame, base_link) when it found no grasp.
+  std::optional<Eigen::Isometry3d> next_view;
+  /// --scene: every view planned, in order (the last one is the report's).
+  struct View
+  {
+    Eigen::Isometry3d camera_pose;
+    std::string status;
+    std::string message;
+  };
+  std::vector<View> views;
 };
 
 const char* const kCsvHeader =
@@ -470,6 +547,25 @@ void writeJson(std::ostream& out, const Report& report)
     out << "  \"object_centroid\": " << jsonArray(report.object->centroid) << ",\n"
         << "  \"object_min\": " << jsonArray(report.object->min) << ",\n"
         << "  \"object_max\": " << jsonArray(report.object->max) << ",\n";
+  auto jsonPose = [](const Eigen::Isometry3d& pose) {
+    Eigen::Quaterniond q(pose.linear());
+    if (q.w() < 0.0)
+      q.coeffs() *= -1.0;
+    return "{\"position\": " + jsonArray(Eigen::Vector3d(pose.translation())) +
+           ", \"quaternion_xyzw\": " + jsonArray(Eigen::Vector4d(q.coeffs())) + "}";
+  };
+  out << "  \"next_view\": " << (report.next_view ? jsonPose(*report.next_view) : "null") << ",\n";
+  if (!report.views.empty())
+  {
+    out << "  \"views\": [";
+    for (std::size_t i = 0; i < report.views.size(); ++i)
+    {
+      const Report::View& v = report.views[i];
+      out << (i ? ",\n" : "\n") << "    {\"camera\": " << jsonPose(v.camera_pose)
+          << ", \"status\": " << jsonString(v.status) << ", \"message\": " << jsonString(v.message) << "}";
+    }
+    out << "\n  ],\n";
+  }
   out << "  \"grasps\": [";
   for (std::size_t i = 0; i < report.grasps.size(); ++i)
   {
@@ -520,7 +616,7 @@ int run(const Options& options)
 {
   Report report;
   report.algorithm = options.algorithm;
-  report.source = options.bag_path.empty() ? options.pcd_path : options.bag_path;
+  report.source = !options.bag_path.empty() ? options.bag_path : !options.pcd_path.empty() ? options.pcd_path : options.scene_path;
   auto finishFailure = [&](const Failure& failure) {
     report.status = failure.status;
     report.stage = failure.stage;
@@ -541,36 +637,66 @@ int run(const Options& options)
     const GripperModel gripper = loadGripper(options.gripper);
     report.gripper = gripper.name;
     const std::unique_ptr<GraspPlanner> planner = makePlanner(options);
-    const std::vector<SensorCloud> clouds = options.bag_path.empty() ? readPcdInput(options) : readBagInput(options);
+    std::optional<SceneInput> scene;
+    std::vector<SensorCloud> clouds;
+    Eigen::Isometry3d camera_pose = Eigen::Isometry3d::Identity();
+    if (!options.scene_path.empty())
+    {
+      scene = loadSceneInput(options);
+      camera_pose = scene->scene.cameras.front().optical_pose;
+    }
+    else
+      clouds = options.bag_path.empty() ? readPcdInput(options) : readBagInput(options);
 
     ViewPreparationParams perception = deployedViewPreparationParams();
     perception.segment_table = !options.already_segmented;
     perception.table_plane = options.table_plane;
-    std::mt19937 rng(0);
-    const Stopwatch perception_watch;
-    const PreparedView prepared = prepareView(clouds, perception, rng);
-    report.perception_time_s = perception_watch.elapsedSeconds();
-    report.sensor_origins = prepared.view.sensor_origins;
-    if (!prepared.ok())
-      return finishFailure({ toString(prepared.failed_stage), prepared.status, prepared.problem });
-    report.points = prepared.points;
-    if (prepared.view.has_table_plane)
-      report.table_plane = prepared.view.table_plane;
-    report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
-    // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
-    if (!options.object_pcd_path.empty() &&
-        pcl::io::savePCDFileBinary(options.object_pcd_path, *prepared.view.cloud) != 0)
-      return finishFailure({ "output", "OutputError", "cannot write " + options.object_pcd_path });
+    GraspResult result;
+    for (int view = 0;; ++view)
+    {
+      if (scene)
+        clouds = renderSceneViews(*scene, camera_pose, view);
+      std::mt19937 rng(0);
+      const Stopwatch perception_watch;
+      const PreparedView prepared = prepareView(clouds, perception, rng);
+      report.perception_time_s = perception_watch.elapsedSeconds();
+      report.sensor_origins = prepared.view.sensor_origins;
+      if (!prepared.ok())
+      {
+        if (scene)
+          report.views.push_back({ camera_pose, prepared.status, prepared.problem });
+        return finishFailure({ toString(prepared.failed_stage), prepared.status, prepared.problem });
+      }
+      report.points = prepared.points;
+      report.table_plane.reset();
+      if (prepared.view.has_table_plane)
+        report.table_plane = prepared.view.table_plane;
+      report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
+      // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
+      if (!options.object_pcd_path.empty() &&
+          pcl::io::savePCDFileBinary(options.object_pcd_path, *prepared.view.cloud) != 0)
+        return finishFailure({ "output", "OutputError", "cannot write " + options.object_pcd_path });
 
-    const Stopwatch planning_watch;
-    GraspResult result = planner->plan(prepared.view, gripper);
-    const double planning_s = planning_watch.elapsedSeconds();
-    report.compute_time_s = result.compute_time_s > 0.0 ? result.compute_time_s : planning_s;
-    report.candidates_evaluated = result.candidates_evaluated;
+      const Stopwatch planning_watch;
+      result = planner->plan(prepared.view, gripper);
+      const double planning_s = planning_watch.elapsedSeconds();
+      report.compute_time_s = result.compute_time_s > 0.0 ? result.compute_time_s : planning_s;
+      report.candidates_evaluated = result.candidates_evaluated;
+      report.next_view = result.next_view;
+      if (scene)
+        report.views.push_back({ camera_pose, result.ok() ? "ok" : toString(result.failure), result.message });
+      // Ch3.2.3: move the (rendered) camera where the planner asks and look again.
+      if (result.ok() || !scene || !result.next_view || view >= options.follow_next_view)
+        break;
+      camera_pose = *result.next_view;
+    }
     if (!result.ok())
     {
       const GraspFailure why = result.failure == GraspFailure::None ? GraspFailure::NoStableGrasp : result.failure;
-      return finishFailure({ "planning", toString(why), result.message.empty() ? "no grasp" : result.message });
+      std::string reason = result.message.empty() ? "no grasp" : result.message;
+      if (report.views.size() > 1)
+        reason = "after " + std::to_string(report.views.size()) + " views: " + reason;
+      return finishFailure({ "planning", toString(why), reason });
     }
     report.message = result.message;
     report.grasps = std::move(result.grasps);

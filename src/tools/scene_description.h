@@ -1,0 +1,58 @@
+// Scene YAML (config/scenes/*.yaml, format in docs/renderer.md) -> posed triangle parts, objects
+// and cameras for the Xtion renderer. Shared by render_bag (scene -> bag) and grasp_offline
+// (--scene: render, plan, follow the planner's next view). ROS-free.
+#pragma once
+
+#include "fast_grasp/xtion_renderer.h"
+
+#include <Eigen/Geometry>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+/// part_label of the table and floor, and of the target object's parts.
+constexpr int kSceneBackgroundLabel = 0;
+constexpr int kSceneTargetLabel = 1;
+
+struct SceneCamera
+{
+  std::string prefix = "camera";
+  Eigen::Isometry3d optical_pose = Eigen::Isometry3d::Identity();  // in base_link
+};
+
+struct SceneObject
+{
+  std::string name;
+  std::string source;
+  bool target = false;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // base of the object, in base_link
+  double height_m = 0.0;
+};
+
+struct SceneDescription
+{
+  std::string name;
+  uint64_t seed = 1;
+  int frames = 1;
+  std::string compression = "lz4";
+  Eigen::Vector4d table_plane{ 0.0, 0.0, 1.0, 0.0 };
+  std::vector<ScenePart> parts;
+  std::vector<SceneObject> objects;
+  std::vector<SceneCamera> cameras;
+};
+
+/// Loads a scene YAML. `ycb_dir` holds the YCB STL files that "ycb:NAME" meshes refer to;
+/// relative mesh paths are taken from the scene file's folder. Throws std::runtime_error (or
+/// YAML::Exception) with the reason on any problem.
+SceneDescription loadSceneDescription(const std::string& scene_path, const std::string& ycb_dir);
+
+/// A rendered frame as the organised x y z rgb cloud a registered Xtion gives (camera optical
+/// frame, NaN where there is no depth): what render_bag writes into its bags.
+pcl::PointCloud<pcl::PointXYZRGB>::Ptr organisedCloud(const RenderedFrame& frame);
+
+}  // namespace fast_grasp
