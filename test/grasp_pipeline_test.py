@@ -58,6 +58,9 @@ class GraspPipelineTest(unittest.TestCase):
         # Known, open defects (NOTES.md): these checks still run; a failure is reported as a
         # skip naming the defect, a pass as a pass.
         cls.known_failures = names(rospy.get_param("~known_failures", "none"))
+        # Of those, the planners that must also suggest where to look next (~next_view, Ch3.2.3).
+        cls.expect_next_view = names(rospy.get_param("~expect_next_view", "none"))
+        cls.next_views = {name: [] for name in cls.expect_next_view}
         cls.known_hits = []  # (test method, message) of known failures that did occur
         cls.timeout_s = rospy.get_param("~timeout_s", 60.0)
         cls.lock = threading.Lock()
@@ -78,6 +81,8 @@ class GraspPipelineTest(unittest.TestCase):
             rospy.Subscriber("/table_segmentation/scene", PointCloud2, cls.on_scene, queue_size=5)
         for name in cls.planners:
             rospy.Subscriber("/%s/grasps" % name, GraspArray, cls.on_grasps, callback_args=name, queue_size=5)
+        for name in cls.expect_next_view:
+            rospy.Subscriber("/%s/next_view" % name, PoseStamped, cls.on_next_view, callback_args=name, queue_size=5)
         deadline = rospy.Time.now().to_sec() + 0  # sim time may not run yet: use wall clock below
         import time
         end = time.monotonic() + cls.timeout_s
@@ -135,6 +140,11 @@ class GraspPipelineTest(unittest.TestCase):
                 cls.trajectories[i] = (traj, cls.ok_statuses.pop(0))
 
     @classmethod
+    def on_next_view(cls, msg, name):
+        with cls.lock:
+            cls.next_views[name].append(msg)
+
+    @classmethod
     def on_grasps(cls, msg, name):
         with cls.lock:
             cls.grasps[name].append(msg)
@@ -159,6 +169,8 @@ class GraspPipelineTest(unittest.TestCase):
             for array in arrays:
                 self.assertFalse(array.grasps, "%s: expected no grasp on %s" % (name, self.truth["scene"]))
                 self.assertRegex(array.status, r"^(NoGraspableZone|NoStableGrasp|Timeout|DegenerateInput): \S+")
+            if name in self.expect_next_view:
+                self.check_next_view(name, objects)
             return
         with_grasps = [a for a in arrays if a.grasps]
         self.assertTrue(with_grasps, "%s found no grasp; statuses: %s" % (name, [a.status for a in arrays]))
@@ -192,6 +204,33 @@ class GraspPipelineTest(unittest.TestCase):
         cameras = [camera_from_truth(c)[0] for c in self.cameras()]
         self.assertTrue(any(float(approach @ (position - camera)) > 0.0 for camera in cameras),
                         "%s approaches from the unseen side" % label)
+
+    def check_next_view(self, name, objects):
+        """~next_view: a camera pose in base_link at the bag camera's distance from the object,
+        its optical axis on the object (the rotation of Eq. 3.6 about the principal axis)."""
+        import time
+        end = time.monotonic() + 5.0  # latched, but it may trail the GraspArray
+        while time.monotonic() < end:
+            with self.lock:
+                views = list(self.next_views[name])
+            if views:
+                break
+            time.sleep(0.1)
+        self.assertTrue(views, "%s published no ~next_view on %s" % (name, self.truth["scene"]))
+        view = views[0]
+        self.assertEqual(view.header.frame_id, "base_link")
+        q = view.pose.orientation
+        rotation = grasp_checks.quaternion_matrix(q.x, q.y, q.z, q.w)
+        position = np.array([view.pose.position.x, view.pose.position.y, view.pose.position.z])
+        points = next(iter(objects.values())) if objects else None
+        self.assertIsNotNone(points, "no object cloud")
+        centroid = points.mean(axis=0)
+        to_object = centroid - position
+        camera, _ = camera_from_truth(self.truth["camera_pose"])
+        self.assertAlmostEqual(np.linalg.norm(to_object), np.linalg.norm(centroid - camera), delta=0.05)
+        self.assertGreater(float(rotation[:, 2] @ to_object) / np.linalg.norm(to_object), 0.99,
+                           "%s: the next view does not look at the object" % name)
+        self.assertGreater(np.linalg.norm(position - camera), 0.05, "%s: the next view is the same view" % name)
 
     def test_planners(self):
         # One assertion listing every planner's problem (rosunit drops subTest messages).
