@@ -454,14 +454,19 @@ std::string jsonArray(const Vector& v)
   return out + "]";
 }
 
-/// Unit quaternion of the grasp orientation, w >= 0 so that equal poses print equally.
-Eigen::Vector4d quaternionXyzw(const GraspCandidate& grasp)
+/// Unit quaternion of a pose's orientation, w >= 0 so that equal poses print equally.
+Eigen::Vector4d quaternionXyzw(const Eigen::Isometry3d& pose)
 {
-  Eigen::Quaterniond q(grasp.pose.linear());
+  Eigen::Quaterniond q(pose.linear());
   q.normalize();
   if (q.w() < 0.0)
     q.coeffs() *= -1.0;
   return q.coeffs();  // Eigen stores x, y, z, w
+}
+
+Eigen::Vector4d quaternionXyzw(const GraspCandidate& grasp)
+{
+  return quaternionXyzw(grasp.pose);
 }
 
 struct Report
@@ -548,11 +553,8 @@ void writeJson(std::ostream& out, const Report& report)
         << "  \"object_min\": " << jsonArray(report.object->min) << ",\n"
         << "  \"object_max\": " << jsonArray(report.object->max) << ",\n";
   auto jsonPose = [](const Eigen::Isometry3d& pose) {
-    Eigen::Quaterniond q(pose.linear());
-    if (q.w() < 0.0)
-      q.coeffs() *= -1.0;
     return "{\"position\": " + jsonArray(Eigen::Vector3d(pose.translation())) +
-           ", \"quaternion_xyzw\": " + jsonArray(Eigen::Vector4d(q.coeffs())) + "}";
+           ", \"quaternion_xyzw\": " + jsonArray(quaternionXyzw(pose)) + "}";
   };
   out << "  \"next_view\": " << (report.next_view ? jsonPose(*report.next_view) : "null") << ",\n";
   if (!report.views.empty())
