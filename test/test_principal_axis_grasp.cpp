@@ -329,8 +329,8 @@ TEST(PrincipalAxisGrasp, DepthNoiseDoesNotNarrowTheWidth)
 TEST(PrincipalAxisGrasp, SphereWiderThanTheOpeningFailsWithoutNextView)
 {
   // Diameter 0.12 > 0.085: the only narrow sweep lines are near the poles, where the sides
-  // are steep arcs. The thesis resolves only the XOZ failure (step 7) by moving the camera,
-  // so a zone or XOY failure sets no next view.
+  // are steep arcs. A sphere looks as wide from every side: no flat face to look along (its
+  // seen cap is ~0.15 of its width off its XOZ line), so no view is suggested.
   const auto sphere = synthetic::makeSphere({ 0.5, 0.0, 0.06 }, 0.06);
   synthetic::ViewParams camera;
   camera.viewpoint = { 0.9, 0.1, 0.3 };
