@@ -5,7 +5,9 @@ planner, the next camera pose it suggests when it found none) and, when the arm 
 runs, the trajectory. Exits once every frame of the bag is reported, or after ~timeout_s.
 
 Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic,
-expect_grasps (bool), expect_trajectory (bool).
+expect_grasps (bool), expect_trajectory (bool), stop_after_grasp (bool: a live camera, e.g.
+scene_camera following the next view, has no frame count; stop at the first frame with a grasp
+reported in full).
 """
 import math
 import threading
@@ -121,6 +123,10 @@ class Report:
     def printed(self):
         return sum(1 for p in self.frames.values() if p.get("printed"))
 
+    def printed_grasp(self):
+        return any(p.get("printed") and p.get("grasps") is not None and p["grasps"].grasps
+                   for p in self.frames.values())
+
     @staticmethod
     def describe(key, parts):
         lines = ["frame t=%.3f s" % (key * 1e-9)]
@@ -169,6 +175,7 @@ def main():
     cloud_topic = rospy.get_param("~cloud_topic", "/camera/depth_registered/points")
     timeout_s = rospy.get_param("~timeout_s", 60.0)
     expected = count_frames(bag, cloud_topic) if bag else 0
+    stop_after_grasp = rospy.get_param("~stop_after_grasp", False)
     report = Report()
     rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10)
     rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)
@@ -182,6 +189,9 @@ def main():
     while not rospy.is_shutdown() and time.monotonic() < deadline:
         if expected and report.printed() >= expected:
             print("pipeline_report: all %d frame(s) reported" % expected, flush=True)
+            return
+        if stop_after_grasp and report.printed_grasp():
+            print("pipeline_report: a grasp after %d frame(s)" % report.printed(), flush=True)
             return
         time.sleep(0.05)
     with report.lock:

@@ -1,0 +1,215 @@
+// scene_camera: a simulated eye-in-hand Xtion for the live pipeline. Renders a scene YAML
+// (config/scenes/*.yaml) with the project's Xtion renderer and publishes what render_bag would
+// put in a bag — /tf_static (base_link -> <prefix>_link -> <prefix>_rgb_optical_frame) and
+// /<prefix>/depth_registered/points — and, when the principal-axis planner answers a frame of
+// the current view with a next view (Ch3.2.3), moves the camera there, as the arm would, and
+// renders the scene again. So demo.launch scene:=... runs the thesis's "move and look again"
+// loop end to end without a robot.
+//
+// Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR),
+// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0),
+// tf_settle_s (0.5: the camera transform changes this long after the old view's last cloud, and
+// the new view's first cloud follows as long after the change). A view stops sending frames
+// once a next view for one of them is accepted.
+// Subscribes next_view (geometry_msgs/PoseStamped, remap to /grasp_planner/next_view).
+// Publishes ~status (std_msgs/String, latched): one line per view.
+#include "scene_description.h"
+
+#include "fast_grasp/xtion_renderer.h"
+
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/String.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+
+#include <cstdlib>
+#include <algorithm>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace fast_grasp
+{
+namespace
+{
+class SimulatedEyeInHandCamera
+{
+public:
+  explicit SimulatedEyeInHandCamera(ros::NodeHandle& nh, ros::NodeHandle& private_nh)
+  {
+    std::string scene_path;
+    if (!private_nh.getParam("scene", scene_path))
+      throw std::runtime_error("~scene (path of a scene YAML) is required");
+    std::string ycb_dir;
+    const char* env = std::getenv("FAST_GRASP_YCB_DIR");
+    private_nh.param<std::string>("ycb_dir", ycb_dir, env ? env : "");
+    private_nh.param("frames_per_view", frames_per_view_, 2);
+    private_nh.param("max_views", max_views_, 3);
+    double frame_period_s = 0.5, start_delay_s = 2.0;
+    private_nh.param("frame_period_s", frame_period_s, 0.5);
+    private_nh.param("start_delay_s", start_delay_s, 2.0);
+    private_nh.param("tf_settle_s", tf_settle_s_, 0.5);
+    if (frames_per_view_ < 1 || max_views_ < 1 || !(frame_period_s > 0.0))
+      throw std::runtime_error("frames_per_view and max_views must be >= 1, frame_period_s > 0");
+
+    scene_ = loadSceneDescription(scene_path, ycb_dir);
+    renderer_ = std::make_unique<XtionRenderer>(scene_.parts);
+    hand_ = Camera{ scene_.cameras.front().prefix, scene_.cameras.front().optical_pose };
+    status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
+    cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
+    next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
+    publishCameraTransform();
+    report("view 0 from the scene's camera");
+    next_frame_time_ = ros::WallTime::now() + ros::WallDuration(start_delay_s);
+    timer_ = nh.createWallTimer(ros::WallDuration(frame_period_s), &SimulatedEyeInHandCamera::onTimer, this);
+  }
+
+private:
+  struct Camera
+  {
+    std::string prefix;
+    Eigen::Isometry3d optical_pose;
+  };
+
+  void publishCameraTransform()
+  {
+    Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
+    link_from_optical.linear() = opticalFromLinkRotation().toRotationMatrix();
+    geometry_msgs::TransformStamped link = tf2::eigenToTransform(hand_.optical_pose * link_from_optical.inverse());
+    link.header.stamp = ros::Time::now();
+    link.header.frame_id = "base_link";
+    link.child_frame_id = hand_.prefix + "_link";
+    geometry_msgs::TransformStamped optical = tf2::eigenToTransform(link_from_optical);
+    optical.header.stamp = link.header.stamp;
+    optical.header.frame_id = hand_.prefix + "_link";
+    optical.child_frame_id = hand_.prefix + "_rgb_optical_frame";
+    broadcaster_.sendTransform({ link, optical });  // a static transform is replaced, not added
+  }
+
+  void onTimer(const ros::WallTimerEvent&)
+  {
+    if (pending_pose_)
+    {
+      // Clouds of the old view still in the pipeline are transformed with the old camera
+      // transform: it changes only tf_settle_s after the last of them, and the new view's
+      // first cloud follows tf_settle_s after the change.
+      if (ros::WallTime::now() < move_time_)
+        return;
+      moveTo(*pending_pose_);
+      pending_pose_.reset();
+      return;
+    }
+    if (frames_sent_ >= frames_per_view_ || ros::WallTime::now() < next_frame_time_)
+      return;
+    const std::uint64_t seed = scene_.seed * 1000 + static_cast<std::uint64_t>(view_ > 0 ? 50 + view_ : 0) +
+                               static_cast<std::uint64_t>(frames_sent_);
+    sensor_msgs::PointCloud2 msg;
+    pcl::toROSMsg(*organisedCloud(renderer_->render(hand_.optical_pose, seed)), msg);
+    msg.header.stamp = ros::Time::now();
+    msg.header.frame_id = hand_.prefix + "_rgb_optical_frame";
+    view_stamps_.insert(microseconds(msg.header.stamp));
+    cloud_pub_.publish(msg);
+    last_cloud_time_ = ros::WallTime::now();
+    ++frames_sent_;
+  }
+
+  void onNextView(const geometry_msgs::PoseStamped& msg)
+  {
+    // One move per view, for a frame of the current view only (the planner answers each frame).
+    if (moved_ || !view_stamps_.count(microseconds(msg.header.stamp)))
+      return;
+    if (view_ + 1 >= max_views_)
+    {
+      report("next view ignored: max_views " + std::to_string(max_views_) + " reached");
+      moved_ = true;
+      return;
+    }
+    if (msg.header.frame_id != "base_link")
+    {
+      report("next view ignored: frame '" + msg.header.frame_id + "' is not base_link");
+      return;
+    }
+    Eigen::Isometry3d pose;
+    tf2::fromMsg(msg.pose, pose);
+    if (!pose.matrix().allFinite())
+    {
+      report("next view ignored: non-finite pose");
+      return;
+    }
+    pending_pose_ = pose;  // the rest of this view's frames are not sent
+    moved_ = true;
+    move_time_ = std::max(ros::WallTime::now(), last_cloud_time_) + ros::WallDuration(tf_settle_s_);
+  }
+
+  void moveTo(const Eigen::Isometry3d& pose)
+  {
+    hand_.optical_pose = pose;
+    ++view_;
+    view_stamps_.clear();
+    frames_sent_ = 0;
+    moved_ = false;
+    publishCameraTransform();
+    next_frame_time_ = ros::WallTime::now() + ros::WallDuration(tf_settle_s_);
+    const Eigen::Vector3d p = pose.translation();
+    std::ostringstream line;
+    line << "view " << view_ << ": camera moved to the planner's next view (" << p.x() << ", " << p.y() << ", "
+         << p.z() << ") m";
+    report(line.str());
+  }
+
+  /// PCL headers keep microseconds: the planner's next view carries the cloud's stamp so cut.
+  static std::uint64_t microseconds(const ros::Time& stamp) { return stamp.toNSec() / 1000; }
+
+  void report(const std::string& text)
+  {
+    ROS_INFO_STREAM("scene_camera: " << text);
+    std_msgs::String status;
+    status.data = "OK: " + text;
+    status_pub_.publish(status);
+  }
+
+  SceneDescription scene_;
+  std::unique_ptr<XtionRenderer> renderer_;
+  Camera hand_;
+  int frames_per_view_ = 2;
+  int max_views_ = 3;
+  double tf_settle_s_ = 0.5;
+  int view_ = 0;
+  int frames_sent_ = 0;
+  bool moved_ = false;
+  std::set<std::uint64_t> view_stamps_;
+  ros::WallTime next_frame_time_;
+  ros::WallTime last_cloud_time_;
+  ros::WallTime move_time_;
+  std::optional<Eigen::Isometry3d> pending_pose_;
+  ros::Publisher status_pub_;
+  ros::Publisher cloud_pub_;
+  ros::Subscriber next_view_sub_;
+  ros::WallTimer timer_;
+  tf2_ros::StaticTransformBroadcaster broadcaster_;
+};
+}  // namespace
+}  // namespace fast_grasp
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "scene_camera");
+  ros::NodeHandle nh, private_nh("~");
+  try
+  {
+    fast_grasp::SimulatedEyeInHandCamera camera(nh, private_nh);
+    ros::spin();
+  }
+  catch (const std::exception& e)
+  {
+    ROS_FATAL_STREAM("scene_camera: " << e.what());
+    return 1;
+  }
+  return 0;
+}
