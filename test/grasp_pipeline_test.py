@@ -63,6 +63,11 @@ class GraspPipelineTest(unittest.TestCase):
         cls.next_views = {name: [] for name in cls.expect_next_view}
         cls.known_hits = []  # (test method, message) of known failures that did occur
         cls.timeout_s = rospy.get_param("~timeout_s", 60.0)
+        # Frames to wait for: the bag's, or (a live scene_camera following the next view) more.
+        cls.frames = rospy.get_param("~frames", cls.truth["frames"])
+        # Live camera: the camera pose that saw the object comes from tf (the moved camera), not
+        # from the bag's truth file.
+        cls.camera_frame = rospy.get_param("~camera_frame", "")
         cls.lock = threading.Lock()
         cls.objects = {}  # stamp ns -> N x 3
         cls.grasps = {name: [] for name in cls.planners}
@@ -88,12 +93,12 @@ class GraspPipelineTest(unittest.TestCase):
         end = time.monotonic() + cls.timeout_s
         while time.monotonic() < end and not rospy.is_shutdown():
             with cls.lock:
-                done = all(any(g.grasps for g in cls.grasps[name]) or len(cls.grasps[name]) >= cls.truth["frames"]
+                done = all(any(g.grasps for g in cls.grasps[name]) or len(cls.grasps[name]) >= cls.frames
                            for name in cls.planners)
                 if cls.arm_grasps_from in cls.expect_no_grasp:
                     done = done and bool(cls.arm_statuses)
                 if cls.check_trajectory:
-                    done = done and (cls.trajectories or len(cls.arm_statuses) >= cls.truth["frames"] + 1)
+                    done = done and (cls.trajectories or len(cls.arm_statuses) >= cls.frames + 1)
             if done:
                 break
             time.sleep(0.1)
@@ -150,7 +155,19 @@ class GraspPipelineTest(unittest.TestCase):
             cls.grasps[name].append(msg)
 
     def cameras(self):
+        if self.camera_frame:
+            return [self.camera_from_tf(self.camera_frame)]
         return [self.truth["camera_pose"]] + ([self.truth["head_camera_pose"]] if "head_camera_pose" in self.truth else [])
+
+    @staticmethod
+    def camera_from_tf(frame):
+        """The latest pose of `frame` in base_link, in the truth file's camera_pose format."""
+        import tf2_ros
+        buffer = tf2_ros.Buffer()
+        tf2_ros.TransformListener(buffer)
+        t = buffer.lookup_transform("base_link", frame, rospy.Time(0), rospy.Duration(5.0)).transform
+        return {"position": [t.translation.x, t.translation.y, t.translation.z],
+                "orientation_xyzw": [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]}
 
     def occlusions(self, points):
         result = []

