@@ -69,7 +69,7 @@ public:
 
     scene_ = loadSceneDescription(scene_path, ycb_dir);
     renderer_ = std::make_unique<XtionRenderer>(scene_.parts);
-    hand_ = Camera{ scene_.cameras.front().prefix, scene_.cameras.front().optical_pose };
+    hand_ = scene_.cameras.front();
     status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
     next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
@@ -80,12 +80,6 @@ public:
   }
 
 private:
-  struct Camera
-  {
-    std::string prefix;
-    Eigen::Isometry3d optical_pose;
-  };
-
   void publishCameraTransform()
   {
     Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
@@ -185,7 +179,7 @@ private:
 
   SceneDescription scene_;
   std::unique_ptr<XtionRenderer> renderer_;
-  Camera hand_;
+  SceneCamera hand_;  // the hand (first) camera of the scene, where it looks now
   int frames_per_view_ = 2;
   int max_views_ = 3;
   double tf_settle_s_ = 0.5;
