@@ -347,7 +347,7 @@ std::vector<SensorCloud> renderSceneViews(const SceneInput& input, const Eigen::
   for (std::size_t c = 0; c < input.scene.cameras.size(); ++c)
   {
     const Eigen::Isometry3d pose = c == 0 ? hand_pose : input.scene.cameras[c].optical_pose;
-    const std::uint64_t seed = input.scene.seed * 1000 + c * 100 + (c == 0 && view > 0 ? 50 + view : 0);
+    const std::uint64_t seed = renderSeed(input.scene, c, 0, c == 0 ? view : 0);
     SensorCloud sensor;
     sensor.rgb_cloud = organisedCloud(input.renderer->render(pose, seed));
     sensor.cloud_to_base = pose.cast<float>();

@@ -211,8 +211,7 @@ int run(const Options& options)
   tf2_msgs::TFMessage tf_static;
   for (const auto& camera : scene.cameras)
   {
-    Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
-    link_from_optical.linear() = fast_grasp::opticalFromLinkRotation().toRotationMatrix();
+    const Eigen::Isometry3d link_from_optical = fast_grasp::linkFromOptical();
     const Eigen::Isometry3d link_pose = camera.optical_pose * link_from_optical.inverse();
     tf_static.transforms.push_back(transformMsg("base_link", camera.prefix + "_link", link_pose, start));
     tf_static.transforms.push_back(
@@ -238,7 +237,7 @@ int run(const Options& options)
     for (size_t c = 0; c < scene.cameras.size(); ++c)
     {
       const auto& camera = scene.cameras[c];
-      const fast_grasp::RenderedFrame frame = renderer.render(camera.optical_pose, scene.seed * 1000 + c * 100 + f);
+      const fast_grasp::RenderedFrame frame = renderer.render(camera.optical_pose, fast_grasp::renderSeed(scene, c, f));
       if (f == 0 && c == 0 && !options.preview_path.empty())
         writePreview(frame, options.preview_path);
       bag.write("/" + camera.prefix + "/depth_registered/points", ros::Time(t),

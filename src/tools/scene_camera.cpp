@@ -82,8 +82,7 @@ public:
 private:
   void publishCameraTransform()
   {
-    Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
-    link_from_optical.linear() = opticalFromLinkRotation().toRotationMatrix();
+    const Eigen::Isometry3d link_from_optical = linkFromOptical();
     geometry_msgs::TransformStamped link = tf2::eigenToTransform(hand_.optical_pose * link_from_optical.inverse());
     link.header.stamp = ros::Time::now();
     link.header.frame_id = "base_link";
@@ -110,8 +109,7 @@ private:
     }
     if (frames_sent_ >= frames_per_view_ || ros::WallTime::now() < next_frame_time_)
       return;
-    const std::uint64_t seed = scene_.seed * 1000 + static_cast<std::uint64_t>(view_ > 0 ? 50 + view_ : 0) +
-                               static_cast<std::uint64_t>(frames_sent_);
+    const std::uint64_t seed = renderSeed(scene_, 0, frames_sent_, view_);
     sensor_msgs::PointCloud2 msg;
     pcl::toROSMsg(*organisedCloud(renderer_->render(hand_.optical_pose, seed)), msg);
     msg.header.stamp = ros::Time::now();

@@ -232,6 +232,19 @@ SceneDescription loadSceneDescription(const std::string& scene_path, const std::
   return scene;
 }
 
+std::uint64_t renderSeed(const SceneDescription& scene, std::size_t camera, int frame, int view)
+{
+  return scene.seed * 1000 + camera * 100 + static_cast<std::uint64_t>(frame) +
+         (view > 0 ? 50 + static_cast<std::uint64_t>(view) : 0);
+}
+
+Eigen::Isometry3d linkFromOptical()
+{
+  Eigen::Isometry3d link_from_optical = Eigen::Isometry3d::Identity();
+  link_from_optical.linear() = opticalFromLinkRotation().toRotationMatrix();
+  return link_from_optical;
+}
+
 pcl::PointCloud<pcl::PointXYZRGB>::Ptr organisedCloud(const RenderedFrame& frame)
 {
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZRGB>>();

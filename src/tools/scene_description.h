@@ -9,6 +9,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -50,6 +51,15 @@ struct SceneDescription
 /// relative mesh paths are taken from the scene file's folder. Throws std::runtime_error (or
 /// YAML::Exception) with the reason on any problem.
 SceneDescription loadSceneDescription(const std::string& scene_path, const std::string& ycb_dir);
+
+/// Noise seed of frame `frame` of camera `camera`: render_bag's scheme, so a live or offline
+/// render of view 0 is the bundled bag; `view` > 0 (the hand camera moved to a next view) gets
+/// seeds of its own.
+std::uint64_t renderSeed(const SceneDescription& scene, std::size_t camera, int frame, int view = 0);
+
+/// The fixed <prefix>_link -> <prefix>_rgb_optical_frame transform (REP 103 optical axes); the
+/// link's pose in base_link is optical_pose * linkFromOptical().inverse().
+Eigen::Isometry3d linkFromOptical();
 
 /// A rendered frame as the organised x y z rgb cloud a registered Xtion gives (camera optical
 /// frame, NaN where there is no depth): what render_bag writes into its bags.
