@@ -3,7 +3,7 @@
 
 catkin_test_results counts gtest 1.12's nested <testsuites>/<testsuite> twice, so the
 project's summary line comes from the <testcase> elements themselves.
-Prints failing cases, then "N passed, N failed[, N skipped]"; exits 1 on any failure or
+Prints failing cases with their messages, then "N passed, N failed[, N skipped]"; exits 1 on any failure or
 when no test ran.
 """
 import os
@@ -22,6 +22,16 @@ def known_failures(root):
                 for case in ET.parse(os.path.join(folder, name)).iter("testcase"):
                     known.add((os.path.join(folder, base), case.get("classname"), case.get("name")))
     return known
+
+
+def failure_excerpt(element, max_lines=12):
+    """The failure's message and the tail of its text, indented: CI shows only the end of the
+    log, so the reason must sit next to the FAILED line."""
+    text = (element.get("message") or "") + "\n" + (element.text or "")
+    lines = [line for line in text.strip().splitlines() if line.strip()]
+    if len(lines) > max_lines:
+        lines = lines[:2] + ["..."] + lines[-(max_lines - 3):]
+    return "\n".join("    " + line for line in lines) if lines else "    (no message)"
 
 
 def main(root):
@@ -45,9 +55,13 @@ def main(root):
                 continue
             for case in cases:
                 label = "%s.%s (%s)" % (case.get("classname"), case.get("name"), name)
-                if case.find("failure") is not None or case.find("error") is not None:
+                problem = case.find("failure")
+                if problem is None:
+                    problem = case.find("error")
+                if problem is not None:
                     failed += 1
                     print("FAILED: " + label)
+                    print(failure_excerpt(problem))
                 elif (case.find("skipped") is not None or case.get("status") == "notrun"
                       or (path, case.get("classname"), case.get("name")) in known):
                     skipped += 1

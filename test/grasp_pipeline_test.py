@@ -68,6 +68,12 @@ class GraspPipelineTest(unittest.TestCase):
         # Live camera: the camera pose that saw the object comes from tf (the moved camera), not
         # from the bag's truth file.
         cls.camera_frame = rospy.get_param("~camera_frame", "")
+        if cls.camera_frame:
+            # A moving camera's transform is dynamic: listen from the start, and keep the whole
+            # run, so the pose at any cloud's stamp can be looked up afterwards.
+            import tf2_ros
+            cls.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(600.0))
+            cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
         cls.lock = threading.Lock()
         cls.objects = {}  # stamp ns -> N x 3
         cls.grasps = {name: [] for name in cls.planners}
@@ -154,24 +160,23 @@ class GraspPipelineTest(unittest.TestCase):
         with cls.lock:
             cls.grasps[name].append(msg)
 
-    def cameras(self):
+    def cameras(self, stamp):
+        """The camera poses that saw the cloud stamped `stamp`: the bag's (truth file) or, for a
+        moving camera, its tf at that stamp."""
         if self.camera_frame:
-            return [self.camera_from_tf(self.camera_frame)]
+            return [self.camera_from_tf(self.camera_frame, stamp)]
         return [self.truth["camera_pose"]] + ([self.truth["head_camera_pose"]] if "head_camera_pose" in self.truth else [])
 
-    @staticmethod
-    def camera_from_tf(frame):
-        """The latest pose of `frame` in base_link, in the truth file's camera_pose format."""
-        import tf2_ros
-        buffer = tf2_ros.Buffer()
-        tf2_ros.TransformListener(buffer)
-        t = buffer.lookup_transform("base_link", frame, rospy.Time(0), rospy.Duration(5.0)).transform
+    @classmethod
+    def camera_from_tf(cls, frame, stamp):
+        """The pose of `frame` in base_link at `stamp`, in the truth file's camera_pose format."""
+        t = cls.tf_buffer.lookup_transform("base_link", frame, stamp, rospy.Duration(5.0)).transform
         return {"position": [t.translation.x, t.translation.y, t.translation.z],
                 "orientation_xyzw": [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w]}
 
-    def occlusions(self, points):
+    def occlusions(self, points, stamp):
         result = []
-        for cam in self.cameras():
+        for cam in self.cameras(stamp):
             position, rotation = camera_from_truth(cam)
             result.append(grasp_checks.CameraOcclusion(points, position, rotation))
         return result
@@ -212,13 +217,13 @@ class GraspPipelineTest(unittest.TestCase):
         colliding = grasp_checks.points_in_gripper(local, self.gripper, max_opening)
         self.assertLessEqual(colliding, 2, "%s: %d object points inside the open gripper" % (label, colliding))
         hidden, total = grasp_checks.gripper_in_unseen(position, rotation, self.gripper, max_opening,
-                                                       self.occlusions(points))
+                                                       self.occlusions(points, array.header.stamp))
         self.assertLessEqual(hidden, max(3, total // 100),
                              "%s: %d of %d gripper samples lie in the unseen part" % (label, hidden, total))
         # Seen side: the hand comes from the half-space of a camera that saw the object (either
         # camera in two-camera mode, whose virtual viewpoints lie between the two).
         approach = rotation[:, 0]
-        cameras = [camera_from_truth(c)[0] for c in self.cameras()]
+        cameras = [camera_from_truth(c)[0] for c in self.cameras(array.header.stamp)]
         self.assertTrue(any(float(approach @ (position - camera)) > 0.0 for camera in cameras),
                         "%s approaches from the unseen side" % label)
 

@@ -1,6 +1,7 @@
 // scene_camera: a simulated eye-in-hand Xtion for the live pipeline. Renders a scene YAML
 // (config/scenes/*.yaml) with the project's Xtion renderer and publishes what render_bag would
-// put in a bag — /tf_static (base_link -> <prefix>_link -> <prefix>_rgb_optical_frame) and
+// put in a bag — base_link -> <prefix>_link on /tf (dynamic, as an arm's eye-in-hand camera is),
+// <prefix>_link -> <prefix>_rgb_optical_frame on /tf_static, and
 // /<prefix>/depth_registered/points — and, when the principal-axis planner answers a frame of
 // the current view with a next view (Ch3.2.3), moves the camera there, as the arm would, and
 // renders the scene again. So demo.launch scene:=... runs the thesis's "move and look again"
@@ -8,10 +9,13 @@
 //
 // Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR, else the
 // scripts/fetch_ycb.sh cache),
-// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0),
-// tf_settle_s (0.5: the camera transform changes this long after the old view's last cloud, and
-// the new view's first cloud follows as long after the change). A view stops sending frames
-// once a next view for one of them is accepted.
+// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0). A view stops
+// sending frames once a next view for one of them is accepted; the camera moves on the next
+// timer tick and the new view's first cloud follows one tick later.
+//
+// Every cloud's camera transform is published with the cloud's own stamp (cut to microseconds,
+// as PCL headers keep them), so a cloud still in the pipeline when the camera moves is
+// transformed with the pose that saw it, however slow the machine: no settle time to tune.
 // Subscribes next_view (geometry_msgs/PoseStamped, remap to /grasp_planner/next_view).
 // Publishes ~status (std_msgs/String, latched): one line per view.
 #include "scene_description.h"
@@ -26,6 +30,7 @@
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
 
 #include <cstdlib>
 #ifndef FAST_GRASP_SOURCE_DIR
@@ -63,7 +68,6 @@ public:
     double frame_period_s = 0.5, start_delay_s = 2.0;
     private_nh.param("frame_period_s", frame_period_s, 0.5);
     private_nh.param("start_delay_s", start_delay_s, 2.0);
-    private_nh.param("tf_settle_s", tf_settle_s_, 0.5);
     if (frames_per_view_ < 1 || max_views_ < 1 || !(frame_period_s > 0.0))
       throw std::runtime_error("frames_per_view and max_views must be >= 1, frame_period_s > 0");
 
@@ -73,50 +77,64 @@ public:
     status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
     next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
-    publishCameraTransform();
+    publishOpticalTransform();
+    publishCameraTransform(stampNow());
     report("view 0 from the scene's camera");
     next_frame_time_ = ros::WallTime::now() + ros::WallDuration(start_delay_s);
     timer_ = nh.createWallTimer(ros::WallDuration(frame_period_s), &SimulatedEyeInHandCamera::onTimer, this);
   }
 
 private:
-  void publishCameraTransform()
+  /// The camera body -> optical frame: fixed, like the Xtion's own URDF joint.
+  void publishOpticalTransform()
   {
-    const Eigen::Isometry3d link_from_optical = linkFromOptical();
-    geometry_msgs::TransformStamped link = tf2::eigenToTransform(hand_.optical_pose * link_from_optical.inverse());
-    link.header.stamp = ros::Time::now();
-    link.header.frame_id = "base_link";
-    link.child_frame_id = hand_.prefix + "_link";
-    geometry_msgs::TransformStamped optical = tf2::eigenToTransform(link_from_optical);
-    optical.header.stamp = link.header.stamp;
+    geometry_msgs::TransformStamped optical = tf2::eigenToTransform(linkFromOptical());
+    optical.header.stamp = stampNow();
     optical.header.frame_id = hand_.prefix + "_link";
     optical.child_frame_id = hand_.prefix + "_rgb_optical_frame";
-    broadcaster_.sendTransform({ link, optical });  // a static transform is replaced, not added
+    static_broadcaster_.sendTransform(optical);
+  }
+
+  /// Where the camera is at `stamp` (base_link -> camera body).
+  void publishCameraTransform(const ros::Time& stamp)
+  {
+    geometry_msgs::TransformStamped link =
+        tf2::eigenToTransform(hand_.optical_pose * linkFromOptical().inverse());
+    link.header.stamp = stamp;
+    link.header.frame_id = "base_link";
+    link.child_frame_id = hand_.prefix + "_link";
+    broadcaster_.sendTransform(link);
+  }
+
+  /// Now, cut to microseconds: the stamp a cloud keeps through PCL, so the transform published
+  /// with it matches exactly downstream.
+  static ros::Time stampNow()
+  {
+    ros::Time stamp;
+    stamp.fromNSec(ros::Time::now().toNSec() / 1000 * 1000);
+    return stamp;
   }
 
   void onTimer(const ros::WallTimerEvent&)
   {
     if (pending_pose_)
     {
-      // Clouds of the old view still in the pipeline are transformed with the old camera
-      // transform: it changes only tf_settle_s after the last of them, and the new view's
-      // first cloud follows tf_settle_s after the change.
-      if (ros::WallTime::now() < move_time_)
-        return;
       moveTo(*pending_pose_);
       pending_pose_.reset();
       return;
     }
+    // Keep tf current between clouds, for rviz and anyone looking up the latest pose.
+    publishCameraTransform(stampNow());
     if (frames_sent_ >= frames_per_view_ || ros::WallTime::now() < next_frame_time_)
       return;
     const std::uint64_t seed = renderSeed(scene_, 0, frames_sent_, view_);
     sensor_msgs::PointCloud2 msg;
     pcl::toROSMsg(*organisedCloud(renderer_->render(hand_.optical_pose, seed)), msg);
-    msg.header.stamp = ros::Time::now();
+    msg.header.stamp = stampNow();
     msg.header.frame_id = hand_.prefix + "_rgb_optical_frame";
+    publishCameraTransform(msg.header.stamp);  // before the cloud: its consumers wait for it
     view_stamps_.insert(microseconds(msg.header.stamp));
     cloud_pub_.publish(msg);
-    last_cloud_time_ = ros::WallTime::now();
     ++frames_sent_;
   }
 
@@ -145,7 +163,6 @@ private:
     }
     pending_pose_ = pose;  // the rest of this view's frames are not sent
     moved_ = true;
-    move_time_ = std::max(ros::WallTime::now(), last_cloud_time_) + ros::WallDuration(tf_settle_s_);
   }
 
   void moveTo(const Eigen::Isometry3d& pose)
@@ -155,8 +172,8 @@ private:
     view_stamps_.clear();
     frames_sent_ = 0;
     moved_ = false;
-    publishCameraTransform();
-    next_frame_time_ = ros::WallTime::now() + ros::WallDuration(tf_settle_s_);
+    publishCameraTransform(stampNow());
+    next_frame_time_ = ros::WallTime::now();  // the next tick renders the new view
     const Eigen::Vector3d p = pose.translation();
     std::ostringstream line;
     line << "view " << view_ << ": camera moved to the planner's next view (" << p.x() << ", " << p.y() << ", "
@@ -180,20 +197,18 @@ private:
   SceneCamera hand_;  // the hand (first) camera of the scene, where it looks now
   int frames_per_view_ = 2;
   int max_views_ = 3;
-  double tf_settle_s_ = 0.5;
   int view_ = 0;
   int frames_sent_ = 0;
   bool moved_ = false;
   std::set<std::uint64_t> view_stamps_;
   ros::WallTime next_frame_time_;
-  ros::WallTime last_cloud_time_;
-  ros::WallTime move_time_;
   std::optional<Eigen::Isometry3d> pending_pose_;
   ros::Publisher status_pub_;
   ros::Publisher cloud_pub_;
   ros::Subscriber next_view_sub_;
   ros::WallTimer timer_;
-  tf2_ros::StaticTransformBroadcaster broadcaster_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+  tf2_ros::TransformBroadcaster broadcaster_;
 };
 }  // namespace
 }  // namespace fast_grasp
