@@ -10,6 +10,8 @@ scene_camera following the next view, has no frame count; stop at the first fram
 reported in full).
 """
 import math
+import os
+import sys
 import threading
 
 import rosbag
@@ -19,6 +21,9 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from fast_grasp.msg import GraspArray, SegmentedScene
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bag_start  # noqa: E402
 
 
 def count_frames(bag_path, topic):
@@ -176,13 +181,23 @@ def main():
     timeout_s = rospy.get_param("~timeout_s", 60.0)
     expected = count_frames(bag, cloud_topic) if bag else 0
     stop_after_grasp = rospy.get_param("~stop_after_grasp", False)
+    expect_trajectory = rospy.get_param("~expect_trajectory", False)
     report = Report()
-    rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10)
-    rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)
+    subscribers = [
+        rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10),
+        rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)]
+    if expect_trajectory:
+        subscribers += [
+            rospy.Subscriber("/arm_planner/status", String, report.on_arm_status, queue_size=10),
+            rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, report.on_trajectory, queue_size=10)]
+    # Advertised only by the principal-axis planner: not waited for.
     rospy.Subscriber("/grasp_planner/next_view", PoseStamped, report.on_next_view, queue_size=10)
-    rospy.Subscriber("/arm_planner/status", String, report.on_arm_status, queue_size=10)
-    rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, report.on_trajectory, queue_size=10)
     print("pipeline_report: waiting for %d frame(s) of %s" % (expected, bag or "the live camera"), flush=True)
+    # demo.launch plays the bag paused (~pause_service): every frame is reported, however long
+    # this machine takes to start the pipeline.
+    pause_service = rospy.get_param("~pause_service", "")
+    if pause_service:
+        bag_start.resume_when_listening(subscribers, pause_service)
     # Wall-clock timeout: sim time stops when the bag ends.
     import time
     deadline = time.monotonic() + timeout_s

@@ -26,6 +26,8 @@ from trajectory_msgs.msg import JointTrajectory
 from fast_grasp.msg import GraspArray
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
+import bag_start  # noqa: E402
 import grasp_checks  # noqa: E402
 import urdf_fk  # noqa: E402
 
@@ -84,16 +86,23 @@ class GraspPipelineTest(unittest.TestCase):
         cls.arm_statuses = []
         cls.ok_statuses = []  # OK statuses not yet paired with a trajectory
         cls.scenes = {}
-        rospy.Subscriber("/normal_estimation/output", PointCloud2, cls.on_object, queue_size=5)
+        subscribers = [rospy.Subscriber("/normal_estimation/output", PointCloud2, cls.on_object, queue_size=5)]
         if cls.check_trajectory:
-            rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, cls.on_trajectory, queue_size=5)
-            rospy.Subscriber("/arm_planner/status", String, cls.on_arm_status, queue_size=20)
-            rospy.Subscriber("/arm_planner/executed_grasp", PoseStamped, cls.on_executed, queue_size=5)
-            rospy.Subscriber("/table_segmentation/scene", PointCloud2, cls.on_scene, queue_size=5)
+            subscribers += [
+                rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, cls.on_trajectory, queue_size=5),
+                rospy.Subscriber("/arm_planner/status", String, cls.on_arm_status, queue_size=20),
+                rospy.Subscriber("/arm_planner/executed_grasp", PoseStamped, cls.on_executed, queue_size=5),
+                rospy.Subscriber("/table_segmentation/scene", PointCloud2, cls.on_scene, queue_size=5)]
         for name in cls.planners:
-            rospy.Subscriber("/%s/grasps" % name, GraspArray, cls.on_grasps, callback_args=name, queue_size=5)
+            subscribers.append(
+                rospy.Subscriber("/%s/grasps" % name, GraspArray, cls.on_grasps, callback_args=name, queue_size=5))
         for name in cls.expect_next_view:
-            rospy.Subscriber("/%s/next_view" % name, PoseStamped, cls.on_next_view, callback_args=name, queue_size=5)
+            subscribers.append(rospy.Subscriber("/%s/next_view" % name, PoseStamped, cls.on_next_view,
+                                                callback_args=name, queue_size=5))
+        # A bag played with --pause (~pause_service) starts only when all of the above listen.
+        pause_service = rospy.get_param("~pause_service", "")
+        if pause_service:
+            bag_start.resume_when_listening(subscribers, pause_service)
         deadline = rospy.Time.now().to_sec() + 0  # sim time may not run yet: use wall clock below
         import time
         end = time.monotonic() + cls.timeout_s

@@ -12,6 +12,7 @@ Per frame:
   truth_centroid()).
 """
 import os
+import sys
 import threading
 import time
 import unittest
@@ -22,7 +23,9 @@ import rostest
 import yaml
 from fast_grasp.msg import SegmentedScene
 from sensor_msgs.msg import PointCloud2
-from std_srvs.srv import SetBool
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
+import bag_start  # noqa: E402
 
 # The truth voxels are centroids of 1 cm voxels of the visible surface, so on a curved surface
 # one can sit up to half a voxel diagonal (0.87 cm) from the nearest surface point; the cluster
@@ -78,17 +81,8 @@ class PerceptionBagTest(unittest.TestCase):
         scene_sub = rospy.Subscriber('/table_segmentation/segmented_scene', SegmentedScene, cls.on_scene,
                                      queue_size=10)
         object_sub = rospy.Subscriber('/table_segmentation/object', PointCloud2, cls.on_object, queue_size=10)
-        # The bag starts paused and is resumed only once this node listens: the nodelets subscribe
-        # lazily, so a frame played before the chain is connected would be lost (a one-frame bag
-        # then has nothing to test).
-        service = rospy.get_param('~pause_service', '/bag_player/pause_playback')
-        rospy.wait_for_service(service, timeout=30.0)
-        deadline = time.time() + 30.0
-        while (scene_sub.get_num_connections() == 0 or object_sub.get_num_connections() == 0) and \
-                time.time() < deadline:
-            time.sleep(0.05)
-        time.sleep(1.0)  # the lazy chain subscribes upstream, then connects to the bag player
-        rospy.ServiceProxy(service, SetBool)(False)
+        bag_start.resume_when_listening([scene_sub, object_sub],
+                                        rospy.get_param('~pause_service', '/bag_player/pause_playback'))
 
     @classmethod
     def on_scene(cls, msg):

@@ -1,0 +1,44 @@
+"""Starts a paused `rosbag play --pause` once the test and the pipeline listen.
+
+The perception nodelets subscribe lazily (only when something downstream listens), and a
+loaded machine can take longer than any fixed `--delay` to start the test node: a frame
+played before the whole chain is connected is lost, and a one- or two-frame bag then has
+nothing left to test. So the bag starts paused and is resumed only when (1) every one of the
+test's subscribers is connected to its publisher and (2) the master lists a subscriber for
+every data topic the bag player advertises (clock and tf are latched or continuous).
+"""
+import time
+
+import rosgraph
+import rospy
+from std_srvs.srv import SetBool
+
+# Topics a bag player publishes that need no listener before playing.
+_NO_LISTENER_NEEDED = ("/clock", "/tf", "/tf_static", "/rosout")
+
+
+def _unheard_bag_topics(player):
+    publishers, subscribers, _ = rosgraph.Master(rospy.get_name()).getSystemState()
+    listened = {topic for topic, nodes in subscribers if nodes}
+    played = [topic for topic, nodes in publishers if player in nodes and topic not in _NO_LISTENER_NEEDED]
+    return played, [topic for topic in played if topic not in listened]
+
+
+def resume_when_listening(subscribers, pause_service="/bag_player/pause_playback", timeout_s=60.0):
+    """Waits (wall time) for the conditions above, then resumes the bag; raises RuntimeError
+    naming what never connected."""
+    player = pause_service.rsplit("/", 1)[0] or "/"
+    rospy.wait_for_service(pause_service, timeout=timeout_s)
+    deadline = time.monotonic() + timeout_s
+    while True:
+        unconnected = [s.resolved_name for s in subscribers if s.get_num_connections() == 0]
+        played, unheard = _unheard_bag_topics(player)
+        if not unconnected and played and not unheard:
+            break
+        if time.monotonic() > deadline:
+            raise RuntimeError("bag not started after %.0f s: test subscribers without a publisher %s, "
+                               "bag topics %s without a subscriber %s" % (timeout_s, unconnected, played, unheard))
+        time.sleep(0.05)
+    # Registered with the master is not yet connected: give the last TCP handshakes a moment.
+    time.sleep(0.5)
+    rospy.ServiceProxy(pause_service, SetBool)(False)
