@@ -1,4 +1,5 @@
-"""Starts a paused `rosbag play --pause` once the test and the pipeline listen.
+"""Starts a paused `rosbag play --pause` (or scene_camera with ~start_paused) once the test and
+the pipeline listen.
 
 The perception nodelets subscribe lazily (only when something downstream listens), and a
 loaded machine can take longer than any fixed `--delay` to start the test node: a frame
@@ -20,7 +21,9 @@ _NO_LISTENER_NEEDED = ("/clock", "/tf", "/tf_static", "/rosout")
 def _unheard_bag_topics(player):
     publishers, subscribers, _ = rosgraph.Master(rospy.get_name()).getSystemState()
     listened = {topic for topic, nodes in subscribers if nodes}
-    played = [topic for topic, nodes in publishers if player in nodes and topic not in _NO_LISTENER_NEEDED]
+    # The player's own topics (scene_camera's ~status) are reports, not data.
+    played = [topic for topic, nodes in publishers if player in nodes and topic not in _NO_LISTENER_NEEDED
+              and not topic.startswith(player + "/")]
     return played, [topic for topic in played if topic not in listened]
 
 

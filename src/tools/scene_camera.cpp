@@ -9,7 +9,9 @@
 //
 // Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR, else the
 // scripts/fetch_ycb.sh cache),
-// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0). A view stops
+// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0), start_paused
+// (false: true waits for ~pause_playback(false), std_srvs/SetBool as rosbag play's, so a test or
+// report can start the camera once it listens; true pauses again). A view stops
 // sending frames once a next view for one of them is accepted; the camera moves on the next
 // timer tick and the new view's first cloud follows one tick later.
 //
@@ -28,6 +30,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/String.h>
+#include <std_srvs/SetBool.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -68,6 +71,7 @@ public:
     double frame_period_s = 0.5, start_delay_s = 2.0;
     private_nh.param("frame_period_s", frame_period_s, 0.5);
     private_nh.param("start_delay_s", start_delay_s, 2.0);
+    private_nh.param("start_paused", paused_, false);
     if (frames_per_view_ < 1 || max_views_ < 1 || !(frame_period_s > 0.0))
       throw std::runtime_error("frames_per_view and max_views must be >= 1, frame_period_s > 0");
 
@@ -77,6 +81,7 @@ public:
     status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
     next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
+    pause_service_ = private_nh.advertiseService("pause_playback", &SimulatedEyeInHandCamera::onPause, this);
     publishOpticalTransform();
     publishCameraTransform(stampNow());
     report("view 0 from the scene's camera");
@@ -125,7 +130,7 @@ private:
     }
     // Keep tf current between clouds, for rviz and anyone looking up the latest pose.
     publishCameraTransform(stampNow());
-    if (frames_sent_ >= frames_per_view_ || ros::WallTime::now() < next_frame_time_)
+    if (paused_ || frames_sent_ >= frames_per_view_ || ros::WallTime::now() < next_frame_time_)
       return;
     const std::uint64_t seed = renderSeed(scene_, 0, frames_sent_, view_);
     sensor_msgs::PointCloud2 msg;
@@ -136,6 +141,14 @@ private:
     view_stamps_.insert(microseconds(msg.header.stamp));
     cloud_pub_.publish(msg);
     ++frames_sent_;
+  }
+
+  bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response)
+  {
+    paused_ = request.data;
+    response.success = true;
+    response.message = paused_ ? "paused" : "rendering";
+    return true;
   }
 
   void onNextView(const geometry_msgs::PoseStamped& msg)
@@ -200,12 +213,14 @@ private:
   int view_ = 0;
   int frames_sent_ = 0;
   bool moved_ = false;
+  bool paused_ = false;
   std::set<std::uint64_t> view_stamps_;
   ros::WallTime next_frame_time_;
   std::optional<Eigen::Isometry3d> pending_pose_;
   ros::Publisher status_pub_;
   ros::Publisher cloud_pub_;
   ros::Subscriber next_view_sub_;
+  ros::ServiceServer pause_service_;
   ros::WallTimer timer_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   tf2_ros::TransformBroadcaster broadcaster_;
