@@ -34,16 +34,17 @@ class PerceptionBadInputTest(unittest.TestCase):
         cls.statuses = {name: [] for name in NODELETS}
         cls.addresses = {}
         cls.diagnostic_names = {}
+        subscribers = []
         for name in NODELETS:
-            rospy.Subscriber('/%s/status' % name, String, cls.on_status, callback_args=name)
+            subscribers.append(rospy.Subscriber('/%s/status' % name, String, cls.on_status, callback_args=name))
             for kind in ('sent_address', 'received_address'):
                 topic = '/%s/%s' % (name, kind)
                 cls.addresses[topic] = []
-                rospy.Subscriber(topic, UInt64, cls.on_address, callback_args=topic)
+                subscribers.append(rospy.Subscriber(topic, UInt64, cls.on_address, callback_args=topic))
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics)
         # Listening to the last output keeps the lazy chain subscribed end to end.
-        rospy.Subscriber('/normal_estimation/output', PointCloud2, lambda msg: None)
-        rospy.Subscriber('/table_segmentation/scene', PointCloud2, lambda msg: None)
+        subscribers.append(rospy.Subscriber('/normal_estimation/output', PointCloud2, lambda msg: None))
+        subscribers.append(rospy.Subscriber('/table_segmentation/scene', PointCloud2, lambda msg: None))
         cls.tf_pub = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
         transform = TransformStamped()
         transform.header.frame_id = 'base_link'
@@ -55,7 +56,9 @@ class PerceptionBadInputTest(unittest.TestCase):
         cls.tf_pub.publish(TFMessage(transforms=[transform]))
         cls.cloud_pub = rospy.Publisher('/test_cloud_in', PointCloud2, queue_size=1)
         deadline = time.time() + TIMEOUT_S
-        while cls.cloud_pub.get_num_connections() == 0 and time.time() < deadline:
+        # Every first message counts (the address topics are not latched): start once all connect.
+        while (cls.cloud_pub.get_num_connections() == 0 or any(s.get_num_connections() == 0 for s in subscribers)) \
+                and time.time() < deadline:
             time.sleep(0.1)
         time.sleep(1.0)  # let the tf listeners receive the static transform
 
