@@ -197,7 +197,7 @@ def main():
     # this machine takes to start the pipeline.
     pause_service = rospy.get_param("~pause_service", "")
     if pause_service:
-        bag_start.resume_when_listening(subscribers, pause_service)
+        bag_start.resume_when_listening(subscribers, pause_service, rospy.get_param("~bag_topics", None))
     # Wall-clock timeout: sim time stops when the bag ends.
     import time
     deadline = time.monotonic() + timeout_s

@@ -10,13 +10,13 @@ file), and approach from the camera's side.
 import os
 import sys
 import threading
+import time
 import unittest
 
 import numpy as np
 import rospy
 import rostest
 import yaml
-from sensor_msgs import point_cloud2
 from sensor_msgs.msg import PointCloud2
 
 from geometry_msgs.msg import PoseStamped
@@ -102,9 +102,7 @@ class GraspPipelineTest(unittest.TestCase):
         # A bag played with --pause (~pause_service) starts only when all of the above listen.
         pause_service = rospy.get_param("~pause_service", "")
         if pause_service:
-            bag_start.resume_when_listening(subscribers, pause_service)
-        deadline = rospy.Time.now().to_sec() + 0  # sim time may not run yet: use wall clock below
-        import time
+            bag_start.resume_when_listening(subscribers, pause_service, rospy.get_param("~bag_topics", None))
         end = time.monotonic() + cls.timeout_s
         while time.monotonic() < end and not rospy.is_shutdown():
             with cls.lock:
@@ -117,19 +115,31 @@ class GraspPipelineTest(unittest.TestCase):
             if done:
                 break
             time.sleep(0.1)
-        del deadline
 
     @classmethod
     def on_object(cls, msg):
-        points = np.array(list(point_cloud2.read_points(msg, field_names=("x", "y", "z"), skip_nans=True)))
+        points = grasp_checks.cloud_to_xyz(msg)
         with cls.lock:
-            cls.objects[msg.header.stamp.to_nsec()] = points.reshape(-1, 3)
+            cls.objects[msg.header.stamp.to_nsec()] = points
 
     @classmethod
     def on_scene(cls, msg):
-        points = np.array(list(point_cloud2.read_points(msg, field_names=("x", "y", "z"), skip_nans=True)))
+        points = grasp_checks.cloud_to_xyz(msg)
         with cls.lock:
-            cls.scenes[msg.header.stamp.to_nsec()] = points.reshape(-1, 3)
+            cls.scenes[msg.header.stamp.to_nsec()] = points
+
+    def wait_for_cloud(self, clouds, stamp_ns, timeout_s=15.0):
+        """The cloud stamped `stamp_ns` in `clouds` (self.objects or self.scenes), or None. The big
+        clouds come on their own connections and may trail the grasps and the trajectory that
+        ended the wait in setUpClass, on a loaded machine by a second or more."""
+        end = time.monotonic() + timeout_s
+        while True:
+            with self.lock:
+                if stamp_ns in clouds:
+                    return clouds[stamp_ns]
+            if time.monotonic() > end:
+                return None
+            time.sleep(0.05)
 
     @classmethod
     def on_trajectory(cls, msg):
@@ -208,8 +218,8 @@ class GraspPipelineTest(unittest.TestCase):
         array = with_grasps[0]
         self.assertEqual(array.status, "ok")
         key = array.header.stamp.to_nsec()
-        self.assertIn(key, objects, "no object cloud with the grasps' stamp")
-        points = objects[key]
+        points = self.wait_for_cloud(self.objects, key)
+        self.assertIsNotNone(points, "no object cloud with the grasps' stamp %d (have %s)" % (key, sorted(objects)))
         grasp = array.grasps[0]
         q = grasp.pose.orientation
         rotation = grasp_checks.quaternion_matrix(q.x, q.y, q.z, q.w)
@@ -239,7 +249,6 @@ class GraspPipelineTest(unittest.TestCase):
     def check_next_view(self, name, objects):
         """~next_view: a camera pose in base_link at the bag camera's distance from the object,
         its optical axis on the object (the rotation of Eq. 3.6 about the principal axis)."""
-        import time
         end = time.monotonic() + 5.0  # latched, but it may trail the GraspArray
         while time.monotonic() < end:
             with self.lock:
@@ -253,8 +262,9 @@ class GraspPipelineTest(unittest.TestCase):
         q = view.pose.orientation
         rotation = grasp_checks.quaternion_matrix(q.x, q.y, q.z, q.w)
         position = np.array([view.pose.position.x, view.pose.position.y, view.pose.position.z])
-        points = next(iter(objects.values())) if objects else None
-        self.assertIsNotNone(points, "no object cloud")
+        first_grasps = self.grasps[name][0].header.stamp.to_nsec() if self.grasps[name] else None
+        points = self.wait_for_cloud(self.objects, first_grasps) if first_grasps is not None else None
+        self.assertIsNotNone(points, "no object cloud with the first GraspArray's stamp")
         centroid = points.mean(axis=0)
         to_object = centroid - position
         camera, _ = camera_from_truth(self.truth["camera_pose"])
@@ -320,7 +330,6 @@ class GraspPipelineTest(unittest.TestCase):
             objects = dict(self.objects)
         self.assertTrue(trajectories, "no trajectory; arm planner said: %s" % statuses[-3:])
         traj, status = trajectories[0]
-        import time
         # ~status and ~executed_grasp are published with the trajectory, on other topics: they
         # may arrive a little later (the status is attached to the trajectory when it does).
         end = time.monotonic() + 3.0
@@ -368,7 +377,7 @@ class GraspPipelineTest(unittest.TestCase):
                                "executed grasp closes along another line: %s" % status)
             tilt = np.degrees(np.arccos(np.clip(float(e_rot[:, 0] @ g_rot[:, 0]), -1.0, 1.0)))
             self.assertLessEqual(tilt, arm.get("max_approach_tilt_deg", 0.0) + 0.5, status)
-            points = objects.get(traj.header.stamp.to_nsec())
+            points = self.wait_for_cloud(self.objects, traj.header.stamp.to_nsec())
             if points is not None:
                 local = grasp_checks.to_grasp_frame(points, e_pos, e_rot)
                 self.assertLessEqual(grasp_checks.points_in_gripper(local, self.gripper, self.gripper["max_opening_m"]),
@@ -390,8 +399,8 @@ class GraspPipelineTest(unittest.TestCase):
 
         # Gripper volume against the scene (everything but the object) along the whole motion,
         # joint-space interpolated so the tool moves at most 5 mm between checks.
-        scene = scenes.get(traj.header.stamp.to_nsec())
-        self.assertIsNotNone(scene, "no scene cloud for the trajectory's frame")
+        scene = self.wait_for_cloud(self.scenes, traj.header.stamp.to_nsec())
+        self.assertIsNotNone(scene, "no scene cloud for the trajectory's frame (have %s)" % sorted(scenes))
         opening = self.gripper["max_opening_m"]
         worst = 0
         for i in range(len(q) - 1):

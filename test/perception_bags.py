@@ -24,8 +24,10 @@ import yaml
 from fast_grasp.msg import SegmentedScene
 from sensor_msgs.msg import PointCloud2
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
 import bag_start  # noqa: E402
+import grasp_checks  # noqa: E402
 
 # The truth voxels are centroids of 1 cm voxels of the visible surface, so on a curved surface
 # one can sit up to half a voxel diagonal (0.87 cm) from the nearest surface point; the cluster
@@ -47,14 +49,7 @@ QUIET_S = 3.0
 
 
 def cloud_to_xyz(msg):
-    """(N, 3) float array from a PointCloud2 with float32 x, y, z fields."""
-    offsets = {f.name: f.offset for f in msg.fields}
-    n = msg.width * msg.height
-    raw = np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(n, msg.point_step)
-    xyz = np.empty((n, 3), dtype=np.float64)
-    for i, name in enumerate('xyz'):
-        xyz[:, i] = raw[:, offsets[name]:offsets[name] + 4].copy().view(np.float32).ravel()
-    return xyz
+    return grasp_checks.cloud_to_xyz(msg, finite_only=False)
 
 
 def nearest_distances(queries, points, chunk=256):
