@@ -487,8 +487,9 @@ std::vector<FingerCandidate> fingerCandidates(const OrderedContour& contour, con
 // Main plane. pcl::MomentOfInertiaEstimation's OBB axes are the eigenvectors of the same
 // covariance matrix (major, middle, minor), so its main plane is the PCA plane; but compute()
 // also sweeps the moment of inertia and eccentricity over rotations about each axis. Measured
-// here (PCL 1.13, -O2, one core, 10k points): MomentOfInertiaEstimation::compute() 9.5 ms,
-// computePrincipalFrame 0.05 ms; the 10 ms budget leaves no room for the former.
+// here (PCL 1.13, -O2, taskset one core, 10k points of a half cylinder): compute() + getOBB()
+// 30-37 ms, computePrincipalFrame 0.14-0.43 ms, the same minor axis (|dot| = 1); the 10 ms
+// budget leaves no room for the former.
 GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   const Stopwatch stopwatch;
