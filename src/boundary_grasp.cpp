@@ -148,6 +148,8 @@ std::string BoundaryParams::validate() const
     why << "min_points and max_grasps must be >= 1; ";
   if (!(min_thickness_m >= 0.0))
     why << "min_thickness_m must be >= 0; ";
+  if (!(max_normal_sight_angle_rad >= 0.0) || !(max_normal_sight_angle_rad <= M_PI / 2.0))
+    why << "max_normal_sight_angle_rad must be in [0, pi/2]; ";
   why << gripper_fit.validate();
   return why.str();
 }
@@ -525,13 +527,19 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
   if (!(std::sqrt(pca.eigenvalues(1)) >= p.min_thickness_m))
     return finish(GraspResult::fail(GraspFailure::DegenerateInput, "boundary: collinear points, no outline"));
   const Eigen::Vector3d centroid = pca.centroid.cast<double>();
+  const Eigen::Vector3d sight = (view.sensor_origins.front().cast<double>() - centroid).normalized();
   Eigen::Vector3d normal = pca.axes.col(2).cast<double>().normalized();
-  Eigen::Vector3d axis_u = pca.axes.col(0).cast<double>().normalized();
-  if (normal.dot(view.sensor_origins.front().cast<double>() - centroid) < 0.0)
-  {
+  const Eigen::Vector3d middle = pca.axes.col(1).cast<double>().normalized();
+  // Beyond the thesis: a single view of a round object (a glass seen into its bowl) can be deeper
+  // along the line of sight than wide across it; its thinnest axis then lies across the view and
+  // the hand would come from the side the camera did not see. Take the middle axis instead when
+  // the minor one is that far from the line of sight.
+  if (std::abs(normal.dot(sight)) < std::cos(p.max_normal_sight_angle_rad) &&
+      std::abs(middle.dot(sight)) > std::abs(normal.dot(sight)))
+    normal = middle;
+  if (normal.dot(sight) < 0.0)
     normal = -normal;
-    axis_u = -axis_u;  // keep u x v = normal
-  }
+  const Eigen::Vector3d axis_u = pca.axes.col(0).cast<double>().normalized();
   const Eigen::Vector3d axis_v = normal.cross(axis_u);
   std::vector<Eigen::Vector3d> plane_points;
   plane_points.reserve(finite);

@@ -239,6 +239,7 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
   reader.readNonNegative("width_weight", p.width_weight);
   reader.readCount("min_points", p.min_points, 1);
   reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readNonNegative("max_normal_sight_angle_rad", p.max_normal_sight_angle_rad);
   reader.readCount("max_grasps", p.max_grasps, 1);
   reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
   reader.read("use_unseen_part", p.use_unseen_part);

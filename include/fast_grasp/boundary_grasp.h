@@ -68,6 +68,11 @@ struct BoundaryParams
   /// below min_thickness_m marks collinear points, which have no outline.
   std::size_t min_points = 10;
   double min_thickness_m = 0.0005;
+  /// Beyond the thesis: when the main plane's normal (the minor axis) is farther than this from
+  /// the line of sight, the plane of the major axis and the one of the other two axes nearer to
+  /// the line of sight is used, so the hand still comes from the seen side (a glass seen into its
+  /// bowl is deeper along the sight line than wide). pi/2 = always the thesis's OBB plane.
+  double max_normal_sight_angle_rad = 1.0472;  // 60 degrees
   /// At most this many grasps are returned and candidates kept for markers (best first).
   std::size_t max_grasps = 20;
   std::size_t max_recorded_candidates = 200;
@@ -144,7 +149,8 @@ std::vector<FingerCandidate> fingerCandidates(const OrderedContour& contour, con
 /// Boundary planner. Main plane: the plane of the two largest principal axes of the object
 /// points, which are the axes of PCL's OBB (MomentOfInertiaEstimation takes them from the
 /// same covariance; see boundary_grasp.cpp for why PCA is called directly), its normal turned
-/// toward the sensor. Grasps approach along -normal (from the seen side, perpendicular to the
+/// toward the sensor (the middle axis instead when the minor one lies across the line of sight,
+/// max_normal_sight_angle_rad). Grasps approach along -normal (from the seen side, perpendicular to the
 /// main plane, as in the thesis) and close along the pair's mean force direction in the plane;
 /// the origin sits on the contacts' depth. Metrics: force_balance_rad = gamma_ij,
 /// torque_offset_m = the contacts' offset across the closing direction, variance_m = nu,
