@@ -619,7 +619,8 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
       if (pair.force_balance_rad > p.force_balance_max_rad)
         continue;
       ++opposed;
-      narrowest_opposed = std::min(narrowest_opposed, pair.width_m);
+      if (pair.width_m >= gripper.min_opening_m)
+        narrowest_opposed = std::min(narrowest_opposed, pair.width_m);
       // C: grasping range. Opposed pairs within it are the graspable zone.
       if (pair.width_m > max_width || pair.width_m < gripper.min_opening_m)
         continue;
@@ -688,6 +689,10 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
       return fail(GraspFailure::NoGraspableZone, "no two of the " + std::to_string(fingers.size()) +
                                                      " finger candidates oppose each other within force_balance_max_rad (" +
                                                      std::to_string(facing) + " pairs face each other)");
+    if (!std::isfinite(narrowest_opposed))
+      return fail(GraspFailure::NoGraspableZone, "every pair of opposed finger candidates is closer than the gripper's " +
+                                                     formatNumber(gripper.min_opening_m) +
+                                                     " m min_opening_m (an outline thinner than the gripper can hold)");
     return fail(GraspFailure::NoGraspableZone, "the narrowest pair of opposed finger candidates is " +
                                                    formatNumber(narrowest_opposed) + " m apart, wider than the " +
                                                    formatNumber(max_width) + " m the gripper can close on");

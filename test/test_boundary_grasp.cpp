@@ -442,3 +442,35 @@ TEST(BoundaryParamsYaml, KeysTypesAndTyposAreChecked)
   EXPECT_DOUBLE_EQ(config.boundary.step_m, file["boundary"]["step_m"].as<double>());
   EXPECT_DOUBLE_EQ(config.boundary.variance_max_m, file["boundary"]["variance_max_m"].as<double>());
 }
+
+// A box narrower across the view (0.04 m along y) than deep along it (0.12 m along x), 0.15 m
+// tall, seen from the front and above: the seen front and top faces spread least along y, so the
+// OBB plane's normal (the minor axis) is y, across the line of sight, and the thesis's
+// perpendicular approach would come from the side nobody saw. With the default
+// max_normal_sight_angle_rad the plane facing the camera is used instead: the hand comes from the
+// camera's side and closes across the 0.04 m.
+TEST(BoundaryGrasp, MainPlaneFacesTheCameraWhenTheObbNormalLiesAcrossTheView)
+{
+  const Eigen::Vector3d camera(-0.45, 0.0, 0.55);
+  const Eigen::Vector3d centre(0.0, 0.0, 0.075);
+  synthetic::ViewParams params;
+  params.viewpoint = camera;
+  const ObjectView view = synthetic::makeObjectView(
+      synthetic::renderView(synthetic::makeBox(centre, Eigen::Vector3d(0.12, 0.04, 0.15)), params), camera);
+  const Eigen::Vector3d sight = (camera - centre).normalized();
+
+  BoundaryParams thesis_plane;
+  thesis_plane.max_normal_sight_angle_rad = M_PI / 2.0;
+  // Seen along y, both seen faces are edge-on: the outline is an L of lines a cell or two thick,
+  // nothing the fingers can close on.
+  const GraspResult side = BoundaryGraspPlanner(thesis_plane).plan(view, lacquey());
+  EXPECT_EQ(side.failure, GraspFailure::NoGraspableZone) << side.message;
+  EXPECT_NE(side.message.find("min_opening_m"), std::string::npos) << side.message;
+
+  const GraspResult facing = BoundaryGraspPlanner().plan(view, lacquey());
+  ASSERT_TRUE(facing.ok()) << facing.message;
+  const GraspCandidate& best = facing.grasps.front();
+  EXPECT_GT(best.approach().dot(-sight), std::cos(60.0 * kDeg));
+  EXPECT_LT(closingAngleTo(best, Eigen::Vector3d::UnitY()), 5.0 * kDeg);
+  EXPECT_NEAR(best.width_m, 0.04, 0.005);
+}
