@@ -18,7 +18,7 @@ namespace
 {
 // The grid grows its cell rather than exceed this many cells per side (a mis-scaled cloud must
 // not allocate without bound).
-constexpr int kMaxGridCells1d = 2000;
+constexpr int kMaxGridCells1d = 1000;  // <= 1M cells, ~9 MB of scratch
 
 std::string formatNumber(double value)
 {
