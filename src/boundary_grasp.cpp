@@ -143,6 +143,8 @@ std::string BoundaryParams::validate() const
   if (!(force_balance_weight_m_per_rad >= 0.0) || !(torque_weight >= 0.0) || !(variance_weight >= 0.0) ||
       !(width_weight >= 0.0))
     why << "score weights must be >= 0; ";
+  if (max_finger_candidates < 2)
+    why << "max_finger_candidates must be >= 2; ";
   if (min_points < 1 || max_grasps < 1)
     why << "min_points and max_grasps must be >= 1; ";
   if (!(min_thickness_m >= 0.0))
@@ -579,7 +581,11 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
     return fail(GraspFailure::DegenerateInput, "the outline has fewer than 3 points");
 
   // Ch4.3.1 C: step points and finger candidates with their inside directions.
-  const std::vector<ContourPoint> steps = contourStepPoints(contour.points, p.step_m);
+  double perimeter = 0.0;
+  for (std::size_t i = 0; i < contour.points.size(); ++i)
+    perimeter += (contour.points[(i + 1) % contour.points.size()] - contour.points[i]).norm();
+  const double step = std::max(p.step_m, perimeter / static_cast<double>(p.max_finger_candidates));
+  const std::vector<ContourPoint> steps = contourStepPoints(contour.points, step);
   const std::vector<FingerCandidate> fingers =
       fingerCandidates(contour, steps, finger_width, p.inside_probe_step_m, p.inside_probe_max_steps);
   if (fingers.size() < 2)

@@ -225,6 +225,7 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
   reader.readNonNegative("spacing_cell_factor", p.spacing_cell_factor);
   reader.readCount("close_cells", p.close_cells, 0);
   reader.readPositive("step_m", p.step_m);
+  reader.readCount("max_finger_candidates", p.max_finger_candidates, 2);
   reader.readNonNegative("finger_width_m", p.finger_width_m);
   reader.readPositive("inside_probe_step_m", p.inside_probe_step_m);
   reader.readCount("inside_probe_max_steps", p.inside_probe_max_steps, 1);

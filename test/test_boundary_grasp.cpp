@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <random>
 #include <stdexcept>
 
 using namespace fast_grasp;
@@ -350,6 +351,49 @@ TEST(BoundaryGrasp, BadInputGivesTypedFailures)
   BoundaryParams bad;
   bad.step_m = 0.0;
   EXPECT_EQ(BoundaryGraspPlanner(bad).plan(viewOf(speck), gripper).failure, GraspFailure::InvalidParameters);
+}
+
+// Random clouds of any size and scale, with infinities, outliers and duplicates: a typed result,
+// never a crash, and grasps only with a consistent frame.
+TEST(BoundaryGrasp, RandomCloudsGiveTypedResults)
+{
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const BoundaryGraspPlanner planner;
+  const GripperModel gripper = lacquey();
+  for (int trial = 0; trial < 150; ++trial)
+  {
+    CloudNormal::Ptr cloud(new CloudNormal);
+    const int count = std::uniform_int_distribution<int>(0, 400)(rng);
+    const float scale = std::pow(10.0f, std::uniform_real_distribution<float>(-4.0f, 1.0f)(rng));
+    for (int i = 0; i < count; ++i)
+    {
+      PointNormal p;
+      p.x = scale * unit(rng);
+      p.y = scale * unit(rng);
+      p.z = 0.3f * scale * unit(rng) + 0.5f;
+      p.normal_x = p.normal_y = 0.0f;
+      p.normal_z = 1.0f;
+      if (i % 97 == 5)
+        p.x = std::numeric_limits<float>::infinity();
+      if (i % 131 == 7)
+        p.y = 1e4f;  // a far outlier
+      cloud->push_back(p);
+      if (i % 50 == 3)
+        cloud->push_back(p);  // duplicate
+    }
+    ObjectView view;
+    view.cloud = cloud;
+    view.sensor_origins = { Eigen::Vector3f(0.0f, 0.0f, 2.0f) };
+    const GraspResult result = planner.plan(view, gripper);
+    EXPECT_EQ(result.ok(), result.failure == GraspFailure::None) << result.message;
+    EXPECT_FALSE(result.message.empty());
+    for (const GraspCandidate& g : result.grasps)
+    {
+      EXPECT_TRUE(g.pose.matrix().allFinite());
+      EXPECT_NEAR(g.pose.linear().determinant(), 1.0, 1e-6);
+    }
+  }
 }
 
 TEST(BoundaryGrasp, SameInputSameResult)

@@ -32,6 +32,10 @@ struct BoundaryParams
   /// r of Eq. 4.1: distance between consecutive step points (finger-candidate starts) along
   /// the contour. Smaller finds grasps nearer the centroid at quadratic pair cost.
   double step_m = 0.005;
+  /// The pairs grow with the square of the step points: on outlines longer than
+  /// max_finger_candidates x step_m (3 m by default, far beyond a graspable object) the step
+  /// grows so there are at most this many (600 give 180k pairs, ~2 ms).
+  std::size_t max_finger_candidates = 600;
   /// w_f of Ch4.3.1 C.2: chord length of a finger candidate; 0 = the gripper's finger_width_m.
   double finger_width_m = 0.0;
   /// delta of Fig. 4.11: probe step along a finger's perpendicular bisector when finding the
