@@ -217,6 +217,48 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
+{
+  BoundaryParams p;
+  SectionReader reader(section, "boundary");
+  reader.readPositive("grid_cell_m", p.grid_cell_m);
+  reader.readNonNegative("spacing_cell_factor", p.spacing_cell_factor);
+  reader.readCount("close_cells", p.close_cells, 0);
+  reader.readPositive("step_m", p.step_m);
+  reader.readCount("max_finger_candidates", p.max_finger_candidates, 2);
+  reader.readNonNegative("finger_width_m", p.finger_width_m);
+  reader.readPositive("inside_probe_step_m", p.inside_probe_step_m);
+  reader.readCount("inside_probe_max_steps", p.inside_probe_max_steps, 1);
+  reader.readNonNegative("force_balance_max_rad", p.force_balance_max_rad);
+  reader.readNonNegative("torque_offset_max_m", p.torque_offset_max_m);
+  reader.readNonNegative("opening_margin_m", p.opening_margin_m);
+  reader.readNonNegative("variance_max_m", p.variance_max_m);
+  reader.readNonNegative("operability_tolerance_m", p.operability_tolerance_m);
+  reader.readNonNegative("force_balance_weight_m_per_rad", p.force_balance_weight_m_per_rad);
+  reader.readNonNegative("torque_weight", p.torque_weight);
+  reader.readNonNegative("variance_weight", p.variance_weight);
+  reader.readNonNegative("width_weight", p.width_weight);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readNonNegative("max_normal_sight_angle_rad", p.max_normal_sight_angle_rad);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  reader.read("use_unseen_part", p.use_unseen_part);
+  reader.read("unseen_extension_m", p.unseen.extension_m);
+  reader.read("unseen_step_m", p.unseen.step_m);
+  reader.read("unseen_grid_cell_m", p.unseen.grid_cell_m);
+  reader.read("unseen_min_grid_cell_m", p.unseen.min_grid_cell_m);
+  reader.read("unseen_depth_jump_m", p.unseen.depth_jump_m);
+  reader.read("unseen_max_grid_cells_per_side", p.unseen.max_grid_cells_per_side);
+  reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
+  p.gripper_fit = gripperFitFromYaml(reader, "boundary");
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("boundary: " + problem);
+  return p;
+}
+
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
 {
   YAML::Node root;
@@ -237,6 +279,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
     {
       config.principal_axis = principalAxisParamsFromYaml(root["principal_axis"]);
       config.cshape = cshapeParamsFromYaml(root["cshape"]);
+      config.boundary = boundaryParamsFromYaml(root["boundary"]);
     }
   }
   catch (const std::runtime_error& e)

@@ -465,7 +465,10 @@ INSTANTIATE_TEST_SUITE_P(Bags, OfflineBag,
                                            BagCase{ "milk_carton", "cshape", false },
                                            BagCase{ "spray_bottle", "principal_axis" },
                                            BagCase{ "spray_bottle", "cshape", false },
-                                           BagCase{ "mustard_bottle", "cshape", false }));
+                                           BagCase{ "mustard_bottle", "cshape", false },
+                                           BagCase{ "cracker_box", "boundary", false },
+                                           BagCase{ "milk_carton", "boundary" },
+                                           BagCase{ "spray_bottle", "boundary" }));
 
 TEST(GraspOffline, TwoCameraBagIsFused)
 {

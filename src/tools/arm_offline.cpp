@@ -5,11 +5,12 @@
 // target, the unseen part behind it as an obstacle), so an arm failure of a pipeline rostest
 // can be reproduced and iterated on here. Debugging aid; exit 0 when a motion was planned.
 //
-//   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape] [--frame N]
+//   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape|boundary] [--frame N]
 //               [--gripper lacquey_fetch] [--max-grasps N] [--planner NAME] [--verbose]
 #include "bag_frames.h"
 #include "offline_pipeline.h"
 
+#include "fast_grasp/boundary_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_execution.h"
 #include "fast_grasp/grasp_planner_params.h"
@@ -114,6 +115,8 @@ int run(const Options& options)
   std::unique_ptr<GraspPlanner> planner;
   if (options.algorithm == "cshape")
     planner = std::make_unique<CShapeGraspPlanner>(config.cshape);
+  else if (options.algorithm == "boundary")
+    planner = std::make_unique<BoundaryGraspPlanner>(config.boundary);
   else
     planner = std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
   GraspResult grasps = planner->plan(prepared.view, gripper);
@@ -260,7 +263,7 @@ int main(int argc, char** argv)
       options.verbose = true;
     else
     {
-      std::cerr << "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape] [--frame N] [--gripper G]\n"
+      std::cerr << "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary] [--frame N] [--gripper G]\n"
                    "                   [--arm-config FILE] [--planner NAME] [--max-grasps N] [--verbose]\n";
       return 2;
     }

@@ -9,6 +9,7 @@
 #include "bag_frames.h"
 #include "offline_pipeline.h"
 
+#include "fast_grasp/boundary_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_planner_params.h"
 #include "fast_grasp/gripper_model.h"
@@ -142,6 +143,7 @@ int main(int argc, char** argv)
   std::vector<std::pair<std::string, std::unique_ptr<GraspPlanner>>> planners;
   planners.emplace_back("principal_axis", std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis));
   planners.emplace_back("cshape", std::make_unique<CShapeGraspPlanner>(config.cshape));
+  planners.emplace_back("boundary", std::make_unique<BoundaryGraspPlanner>(config.boundary));
 
   std::vector<fs::path> bags;
   std::error_code error;
