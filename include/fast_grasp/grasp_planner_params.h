@@ -3,6 +3,7 @@
 // everywhere. ROS-free: yaml-cpp only.
 #pragma once
 
+#include "fast_grasp/concavity_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/principal_axis_grasp.h"
 
@@ -23,15 +24,21 @@ PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section);
 /// this throws std::runtime_error with its reason.
 CShapeParams cshapeParamsFromYaml(const YAML::Node& section);
 
-/// Both planners' parameters from one grasp_planners.yaml.
+/// Reads the `concavity:` section the same way; `unseen_*` keys fill ConcavityParams::unseen.
+/// The result passes ConcavityParams::validate() or this throws std::runtime_error with its
+/// reason.
+ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
+
+/// Every planner's parameters from one grasp_planners.yaml.
 struct GraspPlannerConfig
 {
   PrincipalAxisParams principal_axis;
   CShapeParams cshape;
+  ConcavityParams concavity;
 };
 
-/// Loads `yaml_path` and maps its `principal_axis:` and `cshape:` sections (either may be
-/// absent: defaults). Top-level keys other than those two sections are the nodelets' shared
+/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:` and `concavity:` sections (any
+/// may be absent: defaults). Top-level keys other than those sections are the nodelets' shared
 /// settings and are ignored here. Throws std::runtime_error with the file name on a missing or
 /// unparsable file and on any error of the two functions above.
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
