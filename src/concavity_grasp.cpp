@@ -225,6 +225,18 @@ void analyseProjection(const std::vector<int>& region, const PrincipalFrame& fra
     xy.emplace_back(d.dot(u1), d.dot(u2));
   }
   const std::vector<Eigen::Vector2f> boundary = projectedBoundary(xy, p.grid_cell_m);
+  // Every object point in the same plane coordinates and its depth along `view`, once: each
+  // candidate's band is then two 2-D dot products per point.
+  std::vector<Eigen::Vector2f> object_xy;
+  std::vector<float> object_depth;
+  object_xy.reserve(object.size());
+  object_depth.reserve(object.size());
+  for (const PointXYZ& point : object.points)
+  {
+    const Eigen::Vector3f d = point.getVector3fMap() - frame.centroid;
+    object_xy.emplace_back(d.dot(u1), d.dot(u2));
+    object_depth.push_back(d.dot(view));
+  }
   for (const auto& b : boundary)
   {
     const Eigen::Vector3f q = frame.centroid + b.x() * u1 + b.y() * u2;
@@ -262,12 +274,13 @@ void analyseProjection(const std::vector<int>& region, const PrincipalFrame& fra
       // The candidate's cloud (Fig. 5.17): the object's points within half a hand width of the
       // perpendicular bisector of P0Q.
       band.clear();
-      for (const PointXYZ& point : object.points)
+      const float mid_depth = (mid - frame.centroid).dot(view);
+      for (std::size_t i = 0; i < object_xy.size(); ++i)
       {
-        const Eigen::Vector3f d = point.getVector3fMap() - mid;
-        const float a = d.dot(along);
+        const Eigen::Vector2f d = object_xy[i] - mid_2d;
+        const float a = d.dot(along_2d);
         if (std::abs(a) <= half_hand)
-          band.push_back({ a, d.dot(closing), d.dot(view) });
+          band.push_back({ a, along_2d.x() * d.y() - along_2d.y() * d.x(), object_depth[i] - mid_depth });
       }
       if (band.empty())
         continue;
@@ -445,8 +458,8 @@ std::string ConcavityParams::validate() const
     return "a length, step or threshold is negative, zero or not a number";
   if (side_bins < 2 || min_side_bins < 2 || min_side_bins > side_bins)
     return "side_bins and min_side_bins must satisfy 2 <= min_side_bins <= side_bins";
-  if (max_regions < 1 || max_grasps < 1 || min_points < 1 || min_region_points < 1)
-    return "max_regions, max_grasps, min_points and min_region_points must be >= 1";
+  if (max_regions < 1 || max_grasps < 1 || min_points < 1 || min_region_points < 1 || max_analysis_points < 100)
+    return "max_regions, max_grasps, min_points and min_region_points must be >= 1, max_analysis_points >= 100";
   if (!(unseen.extension_m >= 0.0) || unseen.step_m < 0.0 || unseen.grid_cell_m < 0.0 || unseen.min_grid_cell_m < 0.0 ||
       unseen.max_grid_cells_per_side < 2)
     return "unseen part: negative length or fewer than 2 grid cells per side";
@@ -634,18 +647,30 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
     return finish(GraspResult::fail(GraspFailure::DegenerateInput,
                                     "concavity: collinear points, no plane to project onto and no closing direction"));
 
-  // Down-sampling (see voxel_leaf_m): concavity, regions and bands on the voxel centroids.
+  // Down-sampling (see voxel_leaf_m): concavity, regions and bands on the voxel centroids. A
+  // large object (a racket, a pan) keeps more than max_analysis_points at that leaf: the leaf
+  // grows with the square root of the excess (a surface's points go with 1 / leaf^2), and the
+  // lengths tied to the point spacing grow with it.
   CloudXYZ::Ptr object(new CloudXYZ);
-  if (p.voxel_leaf_m > 0.0)
+  double leaf_m = p.voxel_leaf_m;
+  for (int pass = 0; pass < 3 && leaf_m > 0.0; ++pass)
   {
     pcl::VoxelGrid<PointXYZ> voxels;
     voxels.setInputCloud(finite);
-    const float leaf = static_cast<float>(p.voxel_leaf_m);
+    const float leaf = static_cast<float>(leaf_m);
     voxels.setLeafSize(leaf, leaf, leaf);
     voxels.filter(*object);
+    if (object->size() <= p.max_analysis_points)
+      break;
+    leaf_m *= std::sqrt(static_cast<double>(object->size()) / static_cast<double>(p.max_analysis_points));
   }
   if (object->size() < 4)
     *object = *finite;
+  ConcavityParams scaled = p;
+  scaled.grid_cell_m = std::max(p.grid_cell_m, 1.25 * leaf_m);
+  scaled.cluster_tolerance_m = std::max(p.cluster_tolerance_m, 2.5 * leaf_m);
+  scaled.gap_m = std::max(p.gap_m, 2.0 * leaf_m);
+  scaled.boundary_tolerance_m = std::max(p.boundary_tolerance_m, 2.0 * leaf_m);
 
   // Step 1: concavity of every (down-sampled) point.
   std::string no_hull;
@@ -671,7 +696,7 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
     clustering.setInputCloud(object);
     clustering.setIndices(pcl::IndicesPtr(new std::vector<int>(concave)));
     clustering.setSearchMethod(tree);
-    clustering.setClusterTolerance(p.cluster_tolerance_m);
+    clustering.setClusterTolerance(scaled.cluster_tolerance_m);
     clustering.setMinClusterSize(static_cast<int>(p.min_region_points));
     std::vector<pcl::PointIndices> clusters;
     clustering.extract(clusters);
@@ -689,7 +714,7 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
   }
 
   PlanContext ctx;
-  ctx.params = &p;
+  ctx.params = &scaled;
   ctx.gripper = &gripper;
   ctx.object = object.get();
   ctx.sensor = sensors.front();
@@ -705,7 +730,7 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
     if (p.use_unseen_part)
     {
       UnseenPartParams unseen_params = p.unseen;
-      unseen_params.min_grid_cell_m = std::max(unseen_params.min_grid_cell_m, p.voxel_leaf_m);
+      unseen_params.min_grid_cell_m = std::max(unseen_params.min_grid_cell_m, leaf_m);
       std::optional<Eigen::Vector4f> table;
       if (view.has_table_plane)
         table = view.table_plane;
@@ -739,6 +764,8 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
 
   std::ostringstream summary;
   summary << "concavity: ";
+  if (leaf_m > p.voxel_leaf_m)
+    summary << "voxel leaf grown to " << formatNumber(leaf_m) << " m (" << object->size() << " points); ";
   for (const std::vector<int>& region : regions)
     analyseRegion(region, ctx);
   std::vector<GraspCandidate> grasps = fitHand(ctx.stable);
@@ -749,8 +776,13 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
   }
   else
   {
-    summary << "no salient concavity (deepest " << formatNumber(deepest) << " m < " << formatNumber(p.min_concavity_m)
-            << " m" << (no_hull.empty() ? "" : "; " + no_hull) << ")";
+    summary << "no salient concavity (";
+    if (concave.empty())
+      summary << "deepest " << formatNumber(deepest) << " m < " << formatNumber(p.min_concavity_m) << " m";
+    else
+      summary << concave.size() << " points " << formatNumber(p.min_concavity_m) << "-" << formatNumber(deepest)
+              << " m deep, in no cluster of " << p.min_region_points << " points";
+    summary << (no_hull.empty() ? "" : "; " + no_hull) << ")";
   }
   if (grasps.empty())
   {

@@ -222,6 +222,7 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
   ConcavityParams p;
   SectionReader reader(section, "concavity");
   reader.readNonNegative("voxel_leaf_m", p.voxel_leaf_m);
+  reader.readCount("max_analysis_points", p.max_analysis_points, 100);
   reader.readPositive("min_concavity_m", p.min_concavity_m);
   reader.readPositive("cluster_tolerance_m", p.cluster_tolerance_m);
   reader.readCount("min_region_points", p.min_region_points, 1);

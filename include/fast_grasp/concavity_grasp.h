@@ -81,6 +81,10 @@ struct ConcavityParams
   /// budget at 10 k points; 4 mm is about the Xtion's spacing at 0.7 m. The gripper check uses
   /// the full cloud. 0 = no down-sampling.
   double voxel_leaf_m = 0.004;
+  /// When the voxel copy still has more points (a large object), the leaf grows until it has
+  /// about this many: the hull, the ray test and the bands stay within the time budget. The
+  /// grid cell, cluster tolerance, gap and boundary tolerance grow with the leaf.
+  std::size_t max_analysis_points = 2500;
   /// A point is salient-concave at this depth below the hull: above the depth noise of the
   /// sensor (~1-3 mm at 0.6 m) and the voxel size, below the depth of a handle gap or a groove.
   double min_concavity_m = 0.01;
