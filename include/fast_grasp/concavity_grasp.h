@@ -139,8 +139,9 @@ struct ConcavityParams
   /// spread below min_thickness_m). Flat ones are planned (their concavity is 0).
   std::size_t min_points = 10;
   double min_thickness_m = 0.0005;
-  /// Grasps returned, best first.
-  std::size_t max_grasps = 20;
+  /// Grasps returned, best first. The hand check runs until this many fit (each check
+  /// transforms every seen point and the unseen part), so it bounds the time too.
+  std::size_t max_grasps = 10;
   /// Evaluated candidates kept in GraspResult::candidates (markers).
   std::size_t max_recorded_candidates = 200;
   /// Final check with the real hand's volume (gripper_volume.h).
