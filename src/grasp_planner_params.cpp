@@ -259,6 +259,48 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
+{
+  ConcavityParams p;
+  SectionReader reader(section, "concavity");
+  reader.readNonNegative("voxel_leaf_m", p.voxel_leaf_m);
+  reader.readCount("max_analysis_points", p.max_analysis_points, 100);
+  reader.readPositive("min_concavity_m", p.min_concavity_m);
+  reader.readPositive("cluster_tolerance_m", p.cluster_tolerance_m);
+  reader.readCount("min_region_points", p.min_region_points, 1);
+  reader.readCount("max_regions", p.max_regions, 1);
+  reader.readNonNegative("max_approach_view_angle_rad", p.max_approach_view_angle_rad);
+  reader.readPositive("grid_cell_m", p.grid_cell_m);
+  reader.readPositive("step_m", p.step_m);
+  reader.readNonNegative("hand_width_m", p.hand_width_m);
+  reader.readNonNegative("boundary_tolerance_m", p.boundary_tolerance_m);
+  reader.readPositive("gap_m", p.gap_m);
+  reader.readCount("side_bins", p.side_bins, 2);
+  reader.readCount("min_side_bins", p.min_side_bins, 2);
+  reader.readNonNegative("side_depth_m", p.side_depth_m);
+  reader.readPositive("force_balance_max_rad", p.force_balance_max_rad);
+  reader.readNonNegative("view_alignment_weight", p.view_alignment_weight);
+  reader.readNonNegative("duplicate_distance_m", p.duplicate_distance_m);
+  reader.read("use_unseen_part", p.use_unseen_part);
+  reader.read("unseen_extension_m", p.unseen.extension_m);
+  reader.read("unseen_step_m", p.unseen.step_m);
+  reader.read("unseen_grid_cell_m", p.unseen.grid_cell_m);
+  reader.read("unseen_min_grid_cell_m", p.unseen.min_grid_cell_m);
+  reader.read("unseen_depth_jump_m", p.unseen.depth_jump_m);
+  reader.read("unseen_max_grid_cells_per_side", p.unseen.max_grid_cells_per_side);
+  reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  p.gripper_fit = gripperFitFromYaml(reader, "concavity");
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("concavity: " + problem);
+  return p;
+}
+
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
 {
   YAML::Node root;
@@ -280,6 +322,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.principal_axis = principalAxisParamsFromYaml(root["principal_axis"]);
       config.cshape = cshapeParamsFromYaml(root["cshape"]);
       config.boundary = boundaryParamsFromYaml(root["boundary"]);
+      config.concavity = concavityParamsFromYaml(root["concavity"]);
     }
   }
   catch (const std::runtime_error& e)
@@ -287,6 +330,25 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
     throw std::runtime_error("planner parameters '" + yaml_path + "': " + e.what());
   }
   return config;
+}
+
+const std::vector<std::string>& graspAlgorithmNames()
+{
+  static const std::vector<std::string> names{ "principal_axis", "cshape", "boundary", "concavity" };
+  return names;
+}
+
+std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
+{
+  if (algorithm == "principal_axis")
+    return std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
+  if (algorithm == "cshape")
+    return std::make_unique<CShapeGraspPlanner>(config.cshape);
+  if (algorithm == "boundary")
+    return std::make_unique<BoundaryGraspPlanner>(config.boundary);
+  if (algorithm == "concavity")
+    return std::make_unique<ConcavityGraspPlanner>(config.concavity);
+  return nullptr;
 }
 
 }  // namespace fast_grasp

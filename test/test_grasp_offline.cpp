@@ -468,7 +468,10 @@ INSTANTIATE_TEST_SUITE_P(Bags, OfflineBag,
                                            BagCase{ "mustard_bottle", "cshape", false },
                                            BagCase{ "cracker_box", "boundary", false },
                                            BagCase{ "milk_carton", "boundary" },
-                                           BagCase{ "spray_bottle", "boundary" }));
+                                           BagCase{ "spray_bottle", "boundary" },
+                                           BagCase{ "cracker_box", "concavity", false },
+                                           BagCase{ "milk_carton", "concavity" },
+                                           BagCase{ "spray_bottle", "concavity" }));
 
 TEST(GraspOffline, TwoCameraBagIsFused)
 {

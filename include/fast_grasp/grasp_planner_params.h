@@ -4,12 +4,15 @@
 #pragma once
 
 #include "fast_grasp/boundary_grasp.h"
+#include "fast_grasp/concavity_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/principal_axis_grasp.h"
 
 #include <yaml-cpp/node/node.h>
 
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -27,6 +30,10 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section);
 /// Reads the `boundary:` section the same way; `unseen_*` keys fill BoundaryParams::unseen. The
 /// result passes BoundaryParams::validate() or this throws std::runtime_error with its reason.
 BoundaryParams boundaryParamsFromYaml(const YAML::Node& section);
+/// Reads the `concavity:` section the same way; `unseen_*` keys fill ConcavityParams::unseen.
+/// The result passes ConcavityParams::validate() or this throws std::runtime_error with its
+/// reason.
+ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
 
 /// Every planner's parameters from one grasp_planners.yaml.
 struct GraspPlannerConfig
@@ -34,12 +41,20 @@ struct GraspPlannerConfig
   PrincipalAxisParams principal_axis;
   CShapeParams cshape;
   BoundaryParams boundary;
+  ConcavityParams concavity;
 };
 
-/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:` and `boundary:` sections (any may
-/// be absent: defaults). Top-level keys other than those sections are the nodelets' shared
+/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:` and `concavity:`
+/// sections (any may be absent: defaults). Top-level keys other than those sections are the nodelets' shared
 /// settings and are ignored here. Throws std::runtime_error with the file name on a missing or
 /// unparsable file and on any error of the two functions above.
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
+
+/// Every grasp algorithm by its name(): principal_axis, cshape, boundary, concavity.
+const std::vector<std::string>& graspAlgorithmNames();
+
+/// The planner named `algorithm` with its section of `config`; nullptr for an unknown name.
+/// The one place the tools turn a name into a planner.
+std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config);
 
 }  // namespace fast_grasp

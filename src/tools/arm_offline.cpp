@@ -5,12 +5,11 @@
 // target, the unseen part behind it as an obstacle), so an arm failure of a pipeline rostest
 // can be reproduced and iterated on here. Debugging aid; exit 0 when a motion was planned.
 //
-//   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape|boundary] [--frame N]
+//   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape|boundary|concavity] [--frame N]
 //               [--gripper lacquey_fetch] [--max-grasps N] [--planner NAME] [--verbose]
 #include "bag_frames.h"
 #include "offline_pipeline.h"
 
-#include "fast_grasp/boundary_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_execution.h"
 #include "fast_grasp/grasp_planner_params.h"
@@ -112,13 +111,9 @@ int run(const Options& options)
 
   const GripperModel gripper = loadGripperModel(kSource + "/config/grippers/" + options.gripper + ".yaml");
   const GraspPlannerConfig config = loadGraspPlannerConfig(kSource + "/config/grasp_planners.yaml");
-  std::unique_ptr<GraspPlanner> planner;
-  if (options.algorithm == "cshape")
-    planner = std::make_unique<CShapeGraspPlanner>(config.cshape);
-  else if (options.algorithm == "boundary")
-    planner = std::make_unique<BoundaryGraspPlanner>(config.boundary);
-  else
-    planner = std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
+  const std::unique_ptr<GraspPlanner> planner = makeGraspPlanner(options.algorithm, config);
+  if (!planner)
+    throw std::runtime_error("--algorithm: '" + options.algorithm + "' is none of principal_axis, cshape, boundary, concavity");
   GraspResult grasps = planner->plan(prepared.view, gripper);
   std::cout << options.algorithm << ": " << grasps.grasps.size() << " grasps (" << grasps.message << ")\n";
   if (!grasps.ok())
@@ -263,7 +258,7 @@ int main(int argc, char** argv)
       options.verbose = true;
     else
     {
-      std::cerr << "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary] [--frame N] [--gripper G]\n"
+      std::cerr << "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary|concavity] [--frame N] [--gripper G]\n"
                    "                   [--arm-config FILE] [--planner NAME] [--max-grasps N] [--verbose]\n";
       return 2;
     }

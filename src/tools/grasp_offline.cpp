@@ -11,7 +11,6 @@
 #include "offline_pipeline.h"
 #include "scene_description.h"
 
-#include "fast_grasp/boundary_grasp.h"
 #include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_planner_params.h"
 #include "fast_grasp/gripper_model.h"
@@ -22,6 +21,7 @@
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -49,7 +49,7 @@ const char* const kUsage =
     "usage: grasp_offline --bag FILE [--topic T] [--frame N]\n"
     "                   | --pcd FILE --viewpoint x,y,z [--table a,b,c,d] [--already-segmented]\n"
     "                   | --scene FILE.yaml [--ycb-dir DIR] [--follow-next-view N]\n"
-    "                     [--algorithm principal_axis|cshape|boundary] [--gripper NAME_OR_FILE]\n"
+    "                     [--algorithm principal_axis|cshape|boundary|concavity] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
     "                     [--save-object FILE.pcd]\n"
     "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
@@ -64,7 +64,7 @@ const char* const kUsage =
     "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
     "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
     "                       (principal_axis, Ch3.2.3) and plan again (default 0)\n"
-    "  --algorithm A        principal_axis (default), cshape or boundary\n"
+    "  --algorithm A        principal_axis (default), cshape, boundary or concavity\n"
     "  --gripper G          config/grippers/G.yaml or a YAML file (default lacquey_fetch)\n"
     "  --params FILE        planner parameters (default config/grasp_planners.yaml)\n"
     "  --format F           csv (default) or json\n"
@@ -214,8 +214,9 @@ Options parseOptions(int argc, char** argv)
     throw UsageError("--ycb-dir and --follow-next-view go with --scene");
   if (!options.pcd_path.empty() && !options.viewpoint)
     throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
-  if (options.algorithm != "principal_axis" && options.algorithm != "cshape" && options.algorithm != "boundary")
-    throw UsageError("--algorithm: '" + options.algorithm + "' is none of principal_axis, cshape, boundary");
+  const std::vector<std::string>& algorithms = graspAlgorithmNames();
+  if (std::find(algorithms.begin(), algorithms.end(), options.algorithm) == algorithms.end())
+    throw UsageError("--algorithm: '" + options.algorithm + "' is none of principal_axis, cshape, boundary, concavity");
   if (options.format != "csv" && options.format != "json")
     throw UsageError("--format: '" + options.format + "' is neither csv nor json");
   return options;
@@ -388,11 +389,7 @@ std::unique_ptr<GraspPlanner> makePlanner(const Options& options)
   {
     throw FailureError({ "config", "ConfigError", e.what() });
   }
-  if (options.algorithm == "cshape")
-    return std::make_unique<CShapeGraspPlanner>(config.cshape);
-  if (options.algorithm == "boundary")
-    return std::make_unique<BoundaryGraspPlanner>(config.boundary);
-  return std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
+  return makeGraspPlanner(options.algorithm, config);  // the name was checked in parseOptions
 }
 
 // ---- output --------------------------------------------------------------------------------

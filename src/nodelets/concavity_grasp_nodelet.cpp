@@ -1,0 +1,23 @@
+// fast_grasp/ConcavityGrasp: thesis Ch5 concavity planner behind the shared grasp-planner wrapper.
+#include "fast_grasp/concavity_grasp.h"
+#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/nodelets/grasp_planner_nodelet.h"
+#include "fast_grasp/nodelets/xmlrpc_yaml.h"
+
+#include <pluginlib/class_list_macros.hpp>
+
+namespace fast_grasp
+{
+class ConcavityGraspNodelet : public GraspPlannerNodelet
+{
+protected:
+  std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
+  {
+    // ~concavity/* (config/grasp_planners.yaml); throws naming a bad key or value.
+    return std::make_unique<ConcavityGraspPlanner>(concavityParamsFromYaml(paramAsYaml(private_nh, "concavity")));
+  }
+};
+
+}  // namespace fast_grasp
+
+PLUGINLIB_EXPORT_CLASS(fast_grasp::ConcavityGraspNodelet, nodelet::Nodelet)
