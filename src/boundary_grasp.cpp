@@ -186,31 +186,7 @@ OrderedContour traceOrderedContour(const std::vector<Eigen::Vector3d>& plane_poi
     occupied[at(c, r)] = 1;
     deepest[at(c, r)] = std::min(deepest[at(c, r)], static_cast<float>(p.z()));
   }
-  // Closing: dilate, then erode, close_cells times each (3x3 structuring element); separable
-  // passes keep it O(cells).
-  auto morph = [&](std::vector<std::uint8_t>& grid, bool dilate) {
-    std::vector<std::uint8_t> tmp(cells, 0);
-    for (int r = 0; r < rows; ++r)
-      for (int c = 1; c < cols - 1; ++c)
-      {
-        const bool a = grid[at(c - 1, r)], b = grid[at(c, r)], d = grid[at(c + 1, r)];
-        tmp[at(c, r)] = static_cast<std::uint8_t>(dilate ? (a || b || d) : (a && b && d));
-      }
-    for (int r = 1; r < rows - 1; ++r)
-      for (int c = 0; c < cols; ++c)
-      {
-        const bool a = tmp[at(c, r - 1)], b = tmp[at(c, r)], d = tmp[at(c, r + 1)];
-        grid[at(c, r)] = static_cast<std::uint8_t>(dilate ? (a || b || d) : (a && b && d));
-      }
-    for (int c = 0; c < cols; ++c)
-      grid[at(c, 0)] = grid[at(c, rows - 1)] = 0;
-    for (int r = 0; r < rows; ++r)
-      grid[at(0, r)] = grid[at(cols - 1, r)] = 0;
-  };
-  for (int k = 0; k < close_cells; ++k)
-    morph(occupied, true);
-  for (int k = 0; k < close_cells; ++k)
-    morph(occupied, false);
+  closeBinaryGrid(occupied, cols, rows, close_cells);
 
   // The largest 8-connected region (stray clusters and speckle are not the object's outline).
   std::vector<int> label(cells, -1);

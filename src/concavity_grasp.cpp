@@ -98,25 +98,9 @@ std::vector<Eigen::Vector2f> projectedBoundary(const std::vector<Eigen::Vector2f
     const int r = static_cast<int>(std::floor((q.y() - low.y()) / cell)) + 2;
     occupied[at(std::clamp(c, 2, cols - 3), std::clamp(r, 2, rows - 3))] = 1;
   }
-  // Closing (3x3 dilation, then erosion): holes between down-sampled points are not contour.
-  auto morph = [&](const std::vector<std::uint8_t>& in, bool dilate) {
-    std::vector<std::uint8_t> out(in.size(), 0);
-    for (int r = 1; r < rows - 1; ++r)
-      for (int c = 1; c < cols - 1; ++c)
-      {
-        bool any = false, all = true;
-        for (int dr = -1; dr <= 1; ++dr)
-          for (int dc = -1; dc <= 1; ++dc)
-          {
-            const bool v = in[at(c + dc, r + dr)] != 0;
-            any = any || v;
-            all = all && v;
-          }
-        out[at(c, r)] = static_cast<std::uint8_t>(dilate ? any : all);
-      }
-    return out;
-  };
-  std::vector<std::uint8_t> closed = morph(morph(occupied, true), false);
+  // Closing: holes between down-sampled points are not contour.
+  std::vector<std::uint8_t> closed = occupied;
+  closeBinaryGrid(closed, cols, rows, 1);
   for (std::size_t i = 0; i < closed.size(); ++i)
     closed[i] = static_cast<std::uint8_t>(closed[i] || occupied[i]);
   for (int r = 1; r < rows - 1; ++r)

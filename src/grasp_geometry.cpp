@@ -97,4 +97,34 @@ Eigen::Vector2d fitLineDirection(const std::vector<Eigen::Vector2d>& points)
 template PrincipalFrame computePrincipalFrame(const pcl::PointCloud<pcl::PointXYZ>&, const std::vector<int>&);
 template PrincipalFrame computePrincipalFrame(const pcl::PointCloud<pcl::PointNormal>&, const std::vector<int>&);
 
+void closeBinaryGrid(std::vector<std::uint8_t>& grid, int cols, int rows, int iterations)
+{
+  if (cols < 3 || rows < 3 || iterations <= 0 || grid.size() != static_cast<std::size_t>(cols) * rows)
+    return;
+  auto at = [cols](int c, int r) { return static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + c; };
+  std::vector<std::uint8_t> rows_pass(grid.size(), 0);
+  auto pass = [&](bool dilate) {
+    for (int r = 0; r < rows; ++r)
+      for (int c = 1; c < cols - 1; ++c)
+      {
+        const bool a = grid[at(c - 1, r)], b = grid[at(c, r)], d = grid[at(c + 1, r)];
+        rows_pass[at(c, r)] = static_cast<std::uint8_t>(dilate ? (a || b || d) : (a && b && d));
+      }
+    for (int r = 1; r < rows - 1; ++r)
+      for (int c = 0; c < cols; ++c)
+      {
+        const bool a = rows_pass[at(c, r - 1)], b = rows_pass[at(c, r)], d = rows_pass[at(c, r + 1)];
+        grid[at(c, r)] = static_cast<std::uint8_t>(dilate ? (a || b || d) : (a && b && d));
+      }
+    for (int c = 0; c < cols; ++c)
+      grid[at(c, 0)] = grid[at(c, rows - 1)] = 0;
+    for (int r = 0; r < rows; ++r)
+      grid[at(0, r)] = grid[at(cols - 1, r)] = 0;
+  };
+  for (int k = 0; k < iterations; ++k)
+    pass(true);
+  for (int k = 0; k < iterations; ++k)
+    pass(false);
+}
+
 }  // namespace fast_grasp

@@ -115,7 +115,21 @@ private:
   std::set<std::string> known_;
 };
 
-/// The `gripper_fit:` map of either planner (GripperFitParams).
+/// The unseen-part keys every planner with an unseen part shares (`use_unseen_part`,
+/// `unseen_*` = UnseenPartParams), so they mean the same in each section.
+void readUnseenPart(SectionReader& reader, bool& use_unseen_part, UnseenPartParams& unseen)
+{
+  reader.read("use_unseen_part", use_unseen_part);
+  reader.read("unseen_extension_m", unseen.extension_m);
+  reader.read("unseen_step_m", unseen.step_m);
+  reader.read("unseen_grid_cell_m", unseen.grid_cell_m);
+  reader.read("unseen_min_grid_cell_m", unseen.min_grid_cell_m);
+  reader.read("unseen_depth_jump_m", unseen.depth_jump_m);
+  reader.read("unseen_max_grid_cells_per_side", unseen.max_grid_cells_per_side);
+  reader.read("unseen_table_clearance_m", unseen.table_clearance_m);
+}
+
+/// The `gripper_fit:` map of every planner (GripperFitParams).
 GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
 {
   GripperFitParams p;
@@ -188,14 +202,7 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   else
     throw std::runtime_error(reader.where("depth_rule") + ": '" + depth_rule +
                              "' is neither contact_depth nor cshape_centre");
-  reader.read("use_unseen_part", p.use_unseen_part);
-  reader.read("unseen_extension_m", p.unseen.extension_m);
-  reader.read("unseen_step_m", p.unseen.step_m);
-  reader.read("unseen_grid_cell_m", p.unseen.grid_cell_m);
-  reader.read("unseen_min_grid_cell_m", p.unseen.min_grid_cell_m);
-  reader.read("unseen_depth_jump_m", p.unseen.depth_jump_m);
-  reader.read("unseen_max_grid_cells_per_side", p.unseen.max_grid_cells_per_side);
-  reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
   reader.read("check_table_clearance", p.check_table_clearance);
   reader.read("table_clearance_m", p.table_clearance_m);
   reader.read("min_fingertip_overlap_m", p.min_fingertip_overlap_m);
@@ -243,14 +250,7 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
   reader.readNonNegative("max_normal_sight_angle_rad", p.max_normal_sight_angle_rad);
   reader.readCount("max_grasps", p.max_grasps, 1);
   reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
-  reader.read("use_unseen_part", p.use_unseen_part);
-  reader.read("unseen_extension_m", p.unseen.extension_m);
-  reader.read("unseen_step_m", p.unseen.step_m);
-  reader.read("unseen_grid_cell_m", p.unseen.grid_cell_m);
-  reader.read("unseen_min_grid_cell_m", p.unseen.min_grid_cell_m);
-  reader.read("unseen_depth_jump_m", p.unseen.depth_jump_m);
-  reader.read("unseen_max_grid_cells_per_side", p.unseen.max_grid_cells_per_side);
-  reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
   p.gripper_fit = gripperFitFromYaml(reader, "boundary");
   reader.rejectUnknownKeys();
   const std::string problem = p.validate();
@@ -281,14 +281,7 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
   reader.readPositive("force_balance_max_rad", p.force_balance_max_rad);
   reader.readNonNegative("view_alignment_weight", p.view_alignment_weight);
   reader.readNonNegative("duplicate_distance_m", p.duplicate_distance_m);
-  reader.read("use_unseen_part", p.use_unseen_part);
-  reader.read("unseen_extension_m", p.unseen.extension_m);
-  reader.read("unseen_step_m", p.unseen.step_m);
-  reader.read("unseen_grid_cell_m", p.unseen.grid_cell_m);
-  reader.read("unseen_min_grid_cell_m", p.unseen.min_grid_cell_m);
-  reader.read("unseen_depth_jump_m", p.unseen.depth_jump_m);
-  reader.read("unseen_max_grid_cells_per_side", p.unseen.max_grid_cells_per_side);
-  reader.read("unseen_table_clearance_m", p.unseen.table_clearance_m);
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
   reader.readCount("min_points", p.min_points, 1);
   reader.readNonNegative("min_thickness_m", p.min_thickness_m);
   reader.readCount("max_grasps", p.max_grasps, 1);

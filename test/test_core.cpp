@@ -71,6 +71,32 @@ TEST(GraspGeometry, LineFitMatchesHandComputation)
   EXPECT_TRUE(fitLine({ { 1, 0 }, { 1, 1 }, { 1, 2 } }).vertical);
 }
 
+TEST(GraspGeometry, ClosingBridgesOneCellGapsAndKeepsTheOutline)
+{
+  // 9 x 7 grid, 2 empty cells of padding: a 5 x 3 block with a one-cell hole in its middle
+  // and a one-cell notch in its top edge. One closing iteration fills both and nothing else.
+  const int cols = 9, rows = 7;
+  std::vector<std::uint8_t> grid(cols * rows, 0);
+  auto at = [cols](int c, int r) { return static_cast<std::size_t>(r * cols + c); };
+  for (int r = 2; r <= 4; ++r)
+    for (int c = 2; c <= 6; ++c)
+      grid[at(c, r)] = 1;
+  grid[at(4, 3)] = 0;  // hole
+  grid[at(3, 4)] = 0;  // notch in the top edge
+  std::vector<std::uint8_t> expected(cols * rows, 0);
+  for (int r = 2; r <= 4; ++r)
+    for (int c = 2; c <= 6; ++c)
+      expected[at(c, r)] = 1;
+  closeBinaryGrid(grid, cols, rows, 1);
+  EXPECT_EQ(grid, expected);
+  // Zero iterations and a grid of the wrong size leave it as it is.
+  std::vector<std::uint8_t> copy = grid;
+  closeBinaryGrid(copy, cols, rows, 0);
+  EXPECT_EQ(copy, grid);
+  closeBinaryGrid(copy, cols + 1, rows, 1);
+  EXPECT_EQ(copy, grid);
+}
+
 TEST(GraspGeometry, PcaOfABoxFindsItsLongSide)
 {
   CloudXYZ cloud;

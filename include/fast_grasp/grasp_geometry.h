@@ -4,6 +4,8 @@
 #include "fast_grasp/grasp_types.h"
 
 #include <Eigen/Core>
+
+#include <cstdint>
 #include <vector>
 
 namespace fast_grasp
@@ -37,5 +39,12 @@ LineFit fitLine(const std::vector<Eigen::Vector2d>& points);
 
 /// Total least-squares (orthogonal) line direction through 2-D points, robust for any slope.
 Eigen::Vector2d fitLineDirection(const std::vector<Eigen::Vector2d>& points);
+
+/// Morphological closing of a row-major `cols` x `rows` occupancy grid (non-zero = occupied):
+/// `iterations` 3x3 dilations, then as many erosions, as separable passes (O(cells)). It bridges
+/// holes of up to 2 x iterations cells between scan points, so they are not read as contour.
+/// The caller pads the grid with at least iterations + 1 empty cells on every side (the outer
+/// ring is kept empty and the dilation must not reach it).
+void closeBinaryGrid(std::vector<std::uint8_t>& grid, int cols, int rows, int iterations);
 
 }  // namespace fast_grasp
