@@ -7,23 +7,16 @@
 //
 //   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape|boundary|concavity] [--frame N]
 //               [--gripper lacquey_fetch] [--max-grasps N] [--planner NAME] [--verbose]
-#include "bag_frames.h"
-#include "offline_pipeline.h"
+#include "offline_arm_scene.h"
 
-#include "fast_grasp/cshape_grasp.h"
 #include "fast_grasp/grasp_execution.h"
 #include "fast_grasp/grasp_planner_params.h"
 #include "fast_grasp/gripper_model.h"
-#include "fast_grasp/principal_axis_grasp.h"
-#include "fast_grasp/table_segmentation.h"
-#include "fast_grasp/unseen_part.h"
 
 #include <pcl/console/print.h>
-#include <yaml-cpp/yaml.h>
 
 #include <cstdio>
 #include <iostream>
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,31 +42,6 @@ struct Options
   int explain_grasp = -1;  // >= 0: list every IK solution of this grasp and why it is invalid
 };
 
-std::vector<SensorCloud> readClouds(const Options& options)
-{
-  const std::vector<BagFrame> frames = readBagFrames(options.bag_path, "/camera/depth_registered/points");
-  if (static_cast<std::size_t>(options.frame_index) >= frames.size())
-    throw std::runtime_error("bag has " + std::to_string(frames.size()) + " frames");
-  const BagFrame& frame = frames[static_cast<std::size_t>(options.frame_index)];
-  std::vector<SensorCloud> clouds{ sensorCloudFromBagFrame(frame) };
-  const std::string head_topic = "/head_camera/depth_registered/points";
-  if (bagHasTopic(options.bag_path, head_topic))
-  {
-    const std::vector<BagFrame> head = readBagFrames(options.bag_path, head_topic);
-    clouds.push_back(sensorCloudFromBagFrame(closestFrame(head, frame.stamp_s)));
-  }
-  return clouds;
-}
-
-std::map<std::string, double> loadHomePose()
-{
-  std::map<std::string, double> home;
-  const YAML::Node root = YAML::LoadFile(kSource + "/config/home_pose.yaml");
-  for (const auto& entry : root)
-    home[entry.first.as<std::string>()] = entry.second.as<double>();
-  return home;
-}
-
 std::string describePose(const Eigen::Isometry3d& pose)
 {
   char text[256];
@@ -85,29 +53,8 @@ std::string describePose(const Eigen::Isometry3d& pose)
 
 int run(const Options& options)
 {
-  const std::vector<SensorCloud> clouds = readClouds(options);
-
-  // Perception as the nodelets run it: preprocess each camera, concatenate (CloudFusion),
-  // segment; the scene and object clouds are what the ArmPlanner nodelet subscribes to.
-  const ViewPreparationParams perception = deployedViewPreparationParams();
-  CloudXYZ::Ptr merged;
-  for (const SensorCloud& sensor : clouds)
-  {
-    const PreprocessResult pre = preprocessCloud(*sensor.rgb_cloud, sensor.cloud_to_base, perception.preprocess);
-    if (!pre.ok)
-      throw std::runtime_error("preprocess: " + pre.reason);
-    if (!merged)
-      merged = pre.cloud;
-    else
-      *merged += *pre.cloud;
-  }
-  const TableSegmentationResult seg = segmentTable(merged, perception.segmentation);
-  if (!seg.ok())
-    throw std::runtime_error("segmentation: " + seg.reason);
-  std::mt19937 rng(0);
-  const PreparedView prepared = prepareView(clouds, perception, rng);
-  if (!prepared.ok())
-    throw std::runtime_error(prepared.problem);
+  const BagFramePerception perception = perceiveBagFrame(options.bag_path, options.frame_index);
+  const PreparedView& prepared = perception.prepared;
 
   const GripperModel gripper = loadGripperModel(kSource + "/config/grippers/" + options.gripper + ".yaml");
   const GraspPlannerConfig config = loadGraspPlannerConfig(kSource + "/config/grasp_planners.yaml");
@@ -121,36 +68,12 @@ int run(const Options& options)
   if (options.max_grasps > 0 && grasps.grasps.size() > options.max_grasps)
     grasps.grasps.resize(options.max_grasps);
 
-  GraspExecutionParams params = loadGraspExecutionParams(options.arm_config, options.planners_config);
-  if (!options.planner.empty())
-    params.motion.planner = options.planner;
-  ArmKinematics kinematics = ArmKinematics::fromUrdfFile(kSource + "/urdf/ur5_gripper_xtion.urdf", params.base_link,
-                                                         params.tip_link);
-  const std::string limits_problem = applyLimits(params, kinematics);
-  if (!limits_problem.empty())
-    throw std::runtime_error(limits_problem);
-  RobotCollision collision(kinematics, params.link_padding_m);
-  const std::map<std::string, double> home = loadHomePose();
-  Eigen::VectorXd start(static_cast<Eigen::Index>(kinematics.dof()));
-  for (std::size_t j = 0; j < kinematics.dof(); ++j)
-    start[static_cast<Eigen::Index>(j)] = home.at(kinematics.jointNames()[j]);
-
-  // The ArmPlanner nodelet's scene (src/nodelets/arm_planner_nodelet.cpp, plan()).
-  GraspSceneClouds scene_clouds;
-  scene_clouds.scene = seg.scene.get();
-  scene_clouds.object = seg.object.get();
-  scene_clouds.table_plane = seg.plane;
-  // Every camera that saw the object (the nodelet's sensor_frames): space one of them saw is
-  // not unseen.
-  std::vector<Eigen::Vector3f> origins = prepared.view.sensor_origins;
-  if (options.first_camera_only)
-    origins.resize(1);
-  UnseenPartParams unseen_params;  // as the nodelet sets them
-  unseen_params.step_m = params.octomap_resolution_m;
-  const UnseenPart unseen = buildUnseenPart(*seg.object, origins, unseen_params, scene_clouds.table_plane);
-  if (unseen.ok())
-    scene_clouds.unseen = &unseen.points;
-  std::cout << "scene: " << buildGraspScene(collision, start, scene_clouds, params) << "\n";
+  OfflineArm arm = loadOfflineArm(options.arm_config, options.planners_config, options.planner);
+  const GraspExecutionParams& params = arm.params;
+  const ArmKinematics& kinematics = arm.kinematics;
+  const RobotCollision& collision = arm.collision;
+  const Eigen::VectorXd& start = arm.start;
+  std::cout << "scene: " << buildOfflineArmScene(arm, perception, options.first_camera_only) << "\n";
   if (options.verbose)
     for (std::size_t i = 0; i < grasps.grasps.size(); ++i)
       std::cout << "  grasp " << i << " " << describePose(grasps.grasps[i].pose) << " width "
