@@ -119,8 +119,9 @@ void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstP
   if (!plane.allFinite() || plane.head<3>().norm() < 0.5f)
     return;
   std::lock_guard<std::mutex> lock(scene_mutex_);
-  table_plane_ = plane;
-  has_table_plane_ = true;
+  table_planes_[scene->header.stamp.toNSec() / 1000] = plane;
+  while (table_planes_.size() > kKeptPlanes)
+    table_planes_.erase(table_planes_.begin());
 }
 
 std::string GraspPlannerNodelet::lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins)
@@ -185,8 +186,12 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
       return publishFailure("MissingTransform: " + origin_problem);
     {
       std::lock_guard<std::mutex> lock(scene_mutex_);
-      view.has_table_plane = has_table_plane_;
-      view.table_plane = table_plane_;
+      const auto own = table_planes_.find(cloud->header.stamp);  // PCL stamps are µs
+      if (own != table_planes_.end() || !table_planes_.empty())
+      {
+        view.has_table_plane = true;
+        view.table_plane = own != table_planes_.end() ? own->second : table_planes_.rbegin()->second;
+      }
     }
 
     const GraspResult result = planner_->plan(view, gripper_);

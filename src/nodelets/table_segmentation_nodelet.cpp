@@ -120,6 +120,10 @@ void TableSegmentationNodelet::process(const InputConstPtr& msg)
   // meaningful when no object was found.
   for (auto* cloud_out : { result.table.get(), result.scene.get(), result.object.get() })
     cloud_out->header = msg->header;
+  // The scene summary (with the table plane) goes first: in one manager a subscriber's callbacks
+  // run in arrival order, so a grasp planner has this frame's plane before its object cloud
+  // (which reaches it later still, through NormalEstimation).
+  publishScene(*msg, result, status);
   if (result.has_plane)
     table_pub_.publish(toBoost(result.table));
   if (result.has_plane || result.ok())
@@ -130,7 +134,6 @@ void TableSegmentationNodelet::process(const InputConstPtr& msg)
     object_pub_.publish(object);
     publishSentAddress(object.get());
   }
-  publishScene(*msg, result, status);
   switch (result.failure)
   {
     case SegmentationFailure::None:

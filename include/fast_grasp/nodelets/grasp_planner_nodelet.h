@@ -15,6 +15,8 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <cstdint>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -61,8 +63,11 @@ private:
   int max_marker_candidates_ = 100;
 
   std::mutex scene_mutex_;
-  bool has_table_plane_ = false;
-  Eigen::Vector4f table_plane_{ 0.0f, 0.0f, 1.0f, 0.0f };
+  /// Table planes of the last few frames by stamp (µs, as PCL headers keep them): a cloud is
+  /// planned with its own frame's plane, never with none because that frame's plane was still
+  /// in flight; the latest plane stands in only when its own never came (separate processes).
+  std::map<std::uint64_t, Eigen::Vector4f> table_planes_;
+  static constexpr std::size_t kKeptPlanes = 8;
 };
 
 }  // namespace fast_grasp
