@@ -32,7 +32,7 @@ using PlannerParameterTable = std::map<std::string, std::map<std::string, std::s
 
 struct MotionPlanningParams
 {
-  std::string planner = "BiTRRT";  // any of ArmMotionPlanner::plannerNames(); see config/arm.yaml
+  std::string planner = "RRTConnect";  // any of ArmMotionPlanner::plannerNames(); see config/arm.yaml
   double planning_time_s = 3.0;              // budget for solve(); simplification comes out of it too
   double simplify_time_s = 0.2;              // at most this for path simplification
   bool simplify = true;

@@ -166,8 +166,11 @@ private:
   template <typename PointT>
   void makePipeline(const FusionSettings& settings)
   {
-    output_pub_ = advertise<pcl::PointCloud<PointT>>(*pnh_, "output", 1);
+    // The pipeline first: a subscriber already waiting for ~output makes NodeletLazy call
+    // subscribe() from another worker thread as soon as it is advertised, and a subscribe()
+    // that found no pipeline yet was lost for good (the two-camera chain then never ran).
     pipeline_ = std::make_unique<TypedFusionPipeline<PointT>>(settings, output_pub_, status_, getName());
+    output_pub_ = advertise<pcl::PointCloud<PointT>>(*pnh_, "output", 1);
   }
 
   std::string point_type_ = "xyz";
