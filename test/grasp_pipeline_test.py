@@ -128,6 +128,19 @@ class GraspPipelineTest(unittest.TestCase):
         with cls.lock:
             cls.scenes[msg.header.stamp.to_nsec()] = points
 
+    @staticmethod
+    def nodelet_statuses():
+        """Every node's latched ~status, so a failure says where the pipeline stopped."""
+        import rosgraph
+        published, _, _ = rosgraph.Master(rospy.get_name()).getSystemState()
+        lines = []
+        for topic in sorted(t for t, _ in published if t.endswith("/status")):
+            try:
+                lines.append("%s: %s" % (topic, rospy.wait_for_message(topic, String, timeout=1.0).data))
+            except (rospy.ROSException, rospy.ROSInterruptException):
+                lines.append("%s: (none)" % topic)
+        return "; ".join(lines)
+
     def wait_for_cloud(self, clouds, stamp_ns, timeout_s=15.0):
         """The cloud stamped `stamp_ns` in `clouds` (self.objects or self.scenes), or None. The big
         clouds come on their own connections and may trail the grasps and the trajectory that
@@ -204,7 +217,8 @@ class GraspPipelineTest(unittest.TestCase):
         with self.lock:
             arrays = list(self.grasps[name])
             objects = dict(self.objects)
-        self.assertTrue(arrays, "%s published no GraspArray within %.0f s" % (name, self.timeout_s))
+        self.assertTrue(arrays, "%s published no GraspArray within %.0f s; nodelet statuses: %s"
+                        % (name, self.timeout_s, self.nodelet_statuses()))
         if name in self.expect_no_grasp:
             import re
             for array in arrays:
@@ -328,7 +342,8 @@ class GraspPipelineTest(unittest.TestCase):
             arrays = {a.header.stamp.to_nsec(): a for a in self.grasps[self.arm_grasps_from]}
             executed = dict(self.executed)
             objects = dict(self.objects)
-        self.assertTrue(trajectories, "no trajectory; arm planner said: %s" % statuses[-3:])
+        self.assertTrue(trajectories, "no trajectory; arm planner said: %s; nodelet statuses: %s"
+                        % (statuses[-3:], self.nodelet_statuses()))
         traj, status = trajectories[0]
         # ~status and ~executed_grasp are published with the trajectory, on other topics: they
         # may arrive a little later (the status is attached to the trajectory when it does).

@@ -32,7 +32,7 @@ private:
 
   PreprocessParams params_;
   std::string base_frame_ = "base_link";
-  double tf_timeout_s_ = 0.2;
+  double tf_timeout_s_ = 1.0;
 
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;

@@ -86,7 +86,7 @@ void GraspPlannerNodelet::onInit()
     return;
   }
   private_nh_.param("sensor_frames", sensor_frames_, std::vector<std::string>{});
-  private_nh_.param("tf_timeout_s", tf_timeout_s_, 0.1);
+  private_nh_.param("tf_timeout_s", tf_timeout_s_, 0.5);
   private_nh_.param("max_input_points", max_input_points_, 200000);
   private_nh_.param("max_marker_candidates", max_marker_candidates_, 100);
   try

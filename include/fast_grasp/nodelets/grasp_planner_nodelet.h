@@ -58,7 +58,7 @@ private:
   std::unique_ptr<GraspPlanner> planner_;
   GripperModel gripper_;
   std::vector<std::string> sensor_frames_;
-  double tf_timeout_s_ = 0.1;
+  double tf_timeout_s_ = 0.5;
   int max_input_points_ = 200000;
   int max_marker_candidates_ = 100;
 
