@@ -259,5 +259,23 @@ ObjectView makeObjectView(const CloudNormal::ConstPtr& cloud, const Eigen::Vecto
   return object_view;
 }
 
+GripperModel robotiqLikeGripper()
+{
+  GripperModel gripper;
+  gripper.name = "robotiq_2f85";
+  gripper.max_opening_m = 0.085;
+  gripper.min_opening_m = 0.002;
+  gripper.finger_width_m = 0.022;
+  return gripper;
+}
+
+CloudXYZ toXyz(const CloudNormal& cloud)
+{
+  CloudXYZ xyz;
+  for (const auto& p : cloud.points)
+    xyz.push_back(PointXYZ(p.x, p.y, p.z));
+  return xyz;
+}
+
 }  // namespace synthetic
 }  // namespace fast_grasp

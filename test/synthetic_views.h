@@ -59,6 +59,13 @@ CloudNormal::Ptr renderView(const Shape& shape, const ViewParams& view);
 /// Convenience: an ObjectView with `cloud` and a single sensor origin.
 ObjectView makeObjectView(const CloudNormal::ConstPtr& cloud, const Eigen::Vector3d& viewpoint);
 
+/// A gripper with the Robotiq 2F-85's opening and finger width (85 mm, 22 mm; 2 mm minimum),
+/// every other field at GripperModel's defaults: the hand of the analytic planner tests.
+GripperModel robotiqLikeGripper();
+
+/// The points of `cloud` without their normals.
+CloudXYZ toXyz(const CloudNormal& cloud);
+
 /// Ray-shape intersection (exposed for tests of the helper itself): returns true and the
 /// nearest positive ray parameter `t` and the outward unit normal at the hit.
 bool intersectRay(const Shape& shape, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,

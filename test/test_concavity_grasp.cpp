@@ -13,15 +13,7 @@ using namespace fast_grasp;
 
 namespace
 {
-GripperModel robotiq()
-{
-  GripperModel gripper;  // Robotiq 2F-85-like: 85 mm opening, 22 mm fingers, 40 mm finger depth
-  gripper.name = "robotiq_2f85";
-  gripper.max_opening_m = 0.085;
-  gripper.min_opening_m = 0.002;
-  gripper.finger_width_m = 0.022;
-  return gripper;
-}
+GripperModel robotiq() { return synthetic::robotiqLikeGripper(); }
 
 ObjectView onTable(const CloudNormal::ConstPtr& cloud, const Eigen::Vector3d& camera)
 {
@@ -31,13 +23,7 @@ ObjectView onTable(const CloudNormal::ConstPtr& cloud, const Eigen::Vector3d& ca
   return view;
 }
 
-CloudXYZ toXyz(const CloudNormal& cloud)
-{
-  CloudXYZ xyz;
-  for (const auto& p : cloud.points)
-    xyz.push_back(PointXYZ(p.x, p.y, p.z));
-  return xyz;
-}
+using synthetic::toXyz;
 
 /// Horseshoe (U) block on the table, opening toward +y: two arms of thickness 2 cm along y at
 /// x = +-6 cm (inner walls at x = +-5 cm, a 10 cm gap), joined by a base at y = -6 cm; 4 cm high.

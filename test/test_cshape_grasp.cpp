@@ -49,13 +49,7 @@ CShapePose cshapePoseOf(const GraspCandidate& grasp)
   return pose;
 }
 
-CloudXYZ toXyz(const CloudNormal& cloud)
-{
-  CloudXYZ xyz;
-  for (const auto& p : cloud.points)
-    xyz.push_back(PointXYZ(p.x, p.y, p.z));
-  return xyz;
-}
+using synthetic::toXyz;
 
 /// The whole surface of a shape (what no single camera sees), from six axis views.
 CloudXYZ wholeSurface(const Shape& shape)

@@ -15,15 +15,7 @@ namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-GripperModel robotiq()
-{
-  GripperModel gripper;  // defaults follow the Robotiq 2F-85: 85 mm opening, 22 mm fingers
-  gripper.name = "robotiq_2f85";
-  gripper.max_opening_m = 0.085;
-  gripper.min_opening_m = 0.002;
-  gripper.finger_width_m = 0.022;
-  return gripper;
-}
+GripperModel robotiq() { return synthetic::robotiqLikeGripper(); }
 
 ObjectView viewOf(const CloudNormal::ConstPtr& cloud, const Eigen::Vector3d& sensor)
 {
