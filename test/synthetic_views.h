@@ -4,7 +4,7 @@
 // Shared by the planner tests; ROS-free.
 #pragma once
 
-#include "fast_grasp/grasp_types.h"
+#include "fast_grasp/core/grasp_types.h"
 
 #include <Eigen/Geometry>
 

@@ -1,5 +1,5 @@
 // FCL collision of the UR5 model: self, table, OctoMap obstacles, self filter, finger/target rule.
-#include "fast_grasp/robot_collision.h"
+#include "fast_grasp/arm/robot_collision.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // UR5 kinematics from the URDF: FK equals the independent DH product, IK round trips,
 // bad input returns no solution.
-#include "fast_grasp/arm_kinematics.h"
+#include "fast_grasp/arm/arm_kinematics.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // OMPL planning, time parameterisation and the grasp execution plan on the benchmark scenes
 // and on hand-made bad input.
-#include "fast_grasp/arm_motion_planner.h"
-#include "fast_grasp/grasp_execution.h"
-#include "fast_grasp/trajectory_timing.h"
+#include "fast_grasp/arm/arm_motion_planner.h"
+#include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/trajectory_timing.h"
 
 #include <gtest/gtest.h>
 #include <ompl/geometric/SimpleSetup.h>

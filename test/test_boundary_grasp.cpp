@@ -1,8 +1,8 @@
 // Boundary (caging) planner, thesis Ch4: the contour routines on hand-computed polygons and the
 // planner on analytic shapes with hand-derived answers.
-#include "fast_grasp/boundary_grasp.h"
-#include "fast_grasp/grasp_planner_params.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/grasping/boundary_grasp.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include "synthetic_views.h"
 

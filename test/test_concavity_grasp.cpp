@@ -1,6 +1,6 @@
 // Concavity planner (thesis Ch5): analytic shapes with hand-derivable answers.
-#include "fast_grasp/concavity_grasp.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/grasping/concavity_grasp.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include "synthetic_views.h"
 

@@ -1,8 +1,8 @@
 // Core types: gripper configs load and validate, grasp frames are right-handed,
 // line fit and PCA match hand-computed values.
-#include "fast_grasp/grasp_geometry.h"
-#include "fast_grasp/grasp_types.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/grasping/grasp_geometry.h"
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include <gtest/gtest.h>
 

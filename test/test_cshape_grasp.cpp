@@ -2,8 +2,8 @@
 // hand-derivable expectations (a box's grasp closes on one of its sides, a cylinder's across
 // its diameter through the axis, a sphere wider than the gripper has none), the unseen part,
 // determinism, and bad input.
-#include "fast_grasp/cshape_grasp.h"
-#include "fast_grasp/unseen_part.h"
+#include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/unseen_part.h"
 #include "synthetic_views.h"
 
 #include <gtest/gtest.h>

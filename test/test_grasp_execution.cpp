@@ -1,7 +1,7 @@
 // planGraspMotion's choice of grasp and of how to reach it (as given, flipped 180 deg about
 // the approach axis, tilted about the closing axis), its skip reasons, and buildGraspScene's
 // table box. Hand-made scenes around the UR5 + Lacquey gripper + wrist Xtion of urdf/.
-#include "fast_grasp/grasp_execution.h"
+#include "fast_grasp/arm/grasp_execution.h"
 
 #include <gtest/gtest.h>
 #include <ompl/util/Console.h>

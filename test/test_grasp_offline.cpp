@@ -3,7 +3,7 @@
 // the CSV/JSON output and the grasps against the known object geometry.
 #include "offline_pipeline.h"
 
-#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>

@@ -1,7 +1,7 @@
 // The real hand's volume (gripper_volume.h): boxes from the gripper YAML, and the final check
 // every planner applies (back the palm out of the object, fingers free, object in between),
 // against hand-computed coordinates.
-#include "fast_grasp/gripper_volume.h"
+#include "fast_grasp/grasping/gripper_volume.h"
 
 #include <gtest/gtest.h>
 

@@ -1,9 +1,9 @@
 // Perception core on analytic scenes: a sphere's normals point outward, RANSAC recovers a
 // known tilted table under a box, two objects 20 cm apart give two clusters, the reach
 // filter and the voxel grid behave as computed by hand, and bad input returns a reason.
-#include "fast_grasp/cloud_preprocess.h"
-#include "fast_grasp/normal_estimation.h"
-#include "fast_grasp/table_segmentation.h"
+#include "fast_grasp/perception/cloud_preprocess.h"
+#include "fast_grasp/perception/normal_estimation.h"
+#include "fast_grasp/perception/table_segmentation.h"
 
 #include <gtest/gtest.h>
 

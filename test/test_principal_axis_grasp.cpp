@@ -1,6 +1,6 @@
 // Principal-axis planner (thesis Ch3): analytic shapes with hand-derivable answers.
-#include "fast_grasp/principal_axis_grasp.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/grasping/principal_axis_grasp.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include "synthetic_views.h"
 

@@ -1,5 +1,5 @@
 // Xtion renderer: depth, projection, noise statistics and failure modes against analytic scenes.
-#include "fast_grasp/xtion_renderer.h"
+#include "fast_grasp/render/xtion_renderer.h"
 
 #include <gtest/gtest.h>
 

@@ -3,11 +3,11 @@
 // All planning logic lives in the ROS-free core (grasp_execution.h); this is the wrapper.
 #include "fast_grasp/PlanGrasp.h"
 #include "fast_grasp/SegmentedScene.h"
-#include "fast_grasp/grasp_execution.h"
+#include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 #include "fast_grasp/nodelets/tf_wait.h"
-#include "fast_grasp/unseen_part.h"
+#include "fast_grasp/grasping/unseen_part.h"
 
 #include <nodelet/nodelet.h>
 #include <pcl_conversions/pcl_conversions.h>

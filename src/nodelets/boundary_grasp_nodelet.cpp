@@ -1,6 +1,6 @@
 // fast_grasp/BoundaryGrasp: thesis Ch4 boundary (caging) planner behind the shared grasp-planner wrapper.
-#include "fast_grasp/boundary_grasp.h"
-#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/grasping/boundary_grasp.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
 

@@ -1,6 +1,6 @@
 // fast_grasp/CloudPreprocess: raw organised camera cloud -> reach-filtered, voxelised cloud in
 // the base frame (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around preprocessCloud().
-#include "fast_grasp/cloud_preprocess.h"
+#include "fast_grasp/perception/cloud_preprocess.h"
 #include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"

@@ -1,6 +1,6 @@
 // fast_grasp/ConcavityGrasp: thesis Ch5 concavity planner behind the shared grasp-planner wrapper.
-#include "fast_grasp/concavity_grasp.h"
-#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/grasping/concavity_grasp.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
 

@@ -1,6 +1,6 @@
 // fast_grasp/CShapeGrasp: thesis Ch6 C-shape planner behind the shared grasp-planner wrapper.
-#include "fast_grasp/cshape_grasp.h"
-#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
 

@@ -1,6 +1,6 @@
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 
-#include "fast_grasp/cloud_checks.h"
+#include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"

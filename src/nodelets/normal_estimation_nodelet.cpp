@@ -1,10 +1,10 @@
 // fast_grasp/NormalEstimation: k-NN normals of the object cloud oriented toward the camera, and
 // their k-d-tree down-sampling (thesis Ch6.2 steps 2-3). Thin wrapper around estimateNormals().
-#include "fast_grasp/cloud_checks.h"
+#include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
-#include "fast_grasp/normal_estimation.h"
+#include "fast_grasp/perception/normal_estimation.h"
 
 #include <pcl_conversions/pcl_conversions.h>
 #include <pluginlib/class_list_macros.hpp>

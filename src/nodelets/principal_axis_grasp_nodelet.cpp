@@ -1,9 +1,9 @@
 // fast_grasp/PrincipalAxisGrasp: thesis Ch3 planner (one or two cameras) behind the shared
 // grasp-planner wrapper, plus ~next_view (Ch3.2.3) when no grasp passes.
-#include "fast_grasp/grasp_planner_params.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
-#include "fast_grasp/principal_axis_grasp.h"
+#include "fast_grasp/grasping/principal_axis_grasp.h"
 
 #include <geometry_msgs/PoseStamped.h>
 #include <pluginlib/class_list_macros.hpp>

@@ -1,9 +1,9 @@
 // fast_grasp/TableSegmentation: RANSAC table, clusters above it, target object choice
 // (thesis Ch3.2 step 1 / Ch6.2 step 1). Thin wrapper around segmentTable().
-#include "fast_grasp/cloud_checks.h"
+#include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/cloud_nodelet.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
-#include "fast_grasp/table_segmentation.h"
+#include "fast_grasp/perception/table_segmentation.h"
 
 #include <fast_grasp/SegmentedScene.h>
 #include <pcl_conversions/pcl_conversions.h>

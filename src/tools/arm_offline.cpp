@@ -9,9 +9,9 @@
 //               [--gripper lacquey_fetch] [--max-grasps N] [--planner NAME] [--verbose]
 #include "offline_arm_scene.h"
 
-#include "fast_grasp/grasp_execution.h"
-#include "fast_grasp/grasp_planner_params.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include <pcl/console/print.h>
 

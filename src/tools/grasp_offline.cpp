@@ -11,10 +11,10 @@
 #include "offline_pipeline.h"
 #include "scene_description.h"
 
-#include "fast_grasp/cshape_grasp.h"
-#include "fast_grasp/grasp_planner_params.h"
-#include "fast_grasp/gripper_model.h"
-#include "fast_grasp/principal_axis_grasp.h"
+#include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/core/gripper_model.h"
+#include "fast_grasp/grasping/principal_axis_grasp.h"
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>

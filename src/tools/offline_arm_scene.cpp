@@ -2,8 +2,8 @@
 
 #include "bag_frames.h"
 
-#include "fast_grasp/cloud_preprocess.h"
-#include "fast_grasp/unseen_part.h"
+#include "fast_grasp/perception/cloud_preprocess.h"
+#include "fast_grasp/grasping/unseen_part.h"
 
 #include <yaml-cpp/yaml.h>
 

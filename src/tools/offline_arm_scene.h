@@ -8,10 +8,10 @@
 
 #include "offline_pipeline.h"
 
-#include "fast_grasp/arm_kinematics.h"
-#include "fast_grasp/grasp_execution.h"
-#include "fast_grasp/robot_collision.h"
-#include "fast_grasp/table_segmentation.h"
+#include "fast_grasp/arm/arm_kinematics.h"
+#include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/robot_collision.h"
+#include "fast_grasp/perception/table_segmentation.h"
 
 #include <Eigen/Core>
 

@@ -6,10 +6,10 @@
 
 #include "bag_frames.h"
 
-#include "fast_grasp/cloud_preprocess.h"
-#include "fast_grasp/grasp_types.h"
-#include "fast_grasp/normal_estimation.h"
-#include "fast_grasp/table_segmentation.h"
+#include "fast_grasp/perception/cloud_preprocess.h"
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/perception/normal_estimation.h"
+#include "fast_grasp/perception/table_segmentation.h"
 
 #include <Eigen/Geometry>
 #include <pcl/point_cloud.h>

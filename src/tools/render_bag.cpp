@@ -8,7 +8,7 @@
 // (organized 640x480 sensor_msgs/PointCloud2, x y z rgb, point_step 32) at 30 Hz.
 #include "scene_description.h"
 
-#include "fast_grasp/xtion_renderer.h"
+#include "fast_grasp/render/xtion_renderer.h"
 
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>

@@ -22,7 +22,7 @@
 // Publishes ~status (std_msgs/String, latched): one line per view.
 #include "scene_description.h"
 
-#include "fast_grasp/xtion_renderer.h"
+#include "fast_grasp/render/xtion_renderer.h"
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>

@@ -3,7 +3,7 @@
 // (--scene: render, plan, follow the planner's next view). ROS-free.
 #pragma once
 
-#include "fast_grasp/xtion_renderer.h"
+#include "fast_grasp/render/xtion_renderer.h"
 
 #include <Eigen/Geometry>
 #include <pcl/point_cloud.h>

@@ -3,7 +3,7 @@
 
 #include "fast_grasp/Grasp.h"
 #include "fast_grasp/GraspArray.h"
-#include "fast_grasp/grasp_types.h"
+#include "fast_grasp/core/grasp_types.h"
 
 #include <tf2_eigen/tf2_eigen.h>
 

@@ -5,8 +5,8 @@
 
 #include "fast_grasp/GraspArray.h"
 #include "fast_grasp/SegmentedScene.h"
-#include "fast_grasp/grasp_types.h"
-#include "fast_grasp/gripper_model.h"
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 
 #include <nodelet/nodelet.h>

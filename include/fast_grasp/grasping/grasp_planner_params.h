@@ -1,0 +1,60 @@
+// The one mapping from config/grasp_planners.yaml to the planners' parameter structs, shared by
+// the offline tool and (once switched over) the grasp nodelets, so a key means the same thing
+// everywhere. ROS-free: yaml-cpp only.
+#pragma once
+
+#include "fast_grasp/grasping/boundary_grasp.h"
+#include "fast_grasp/grasping/concavity_grasp.h"
+#include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/principal_axis_grasp.h"
+
+#include <yaml-cpp/node/node.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+/// Reads the `principal_axis:` section (a map; keys as in config/grasp_planners.yaml). Missing
+/// keys keep the PrincipalAxisParams defaults; a null node gives the defaults. Throws
+/// std::runtime_error naming the key on an unknown key, a value of the wrong type or an
+/// invalid value (e.g. a non-positive step, min_points or max_grasps < 1).
+PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section);
+
+/// Reads the `cshape:` section the same way; `depth_rule` is "contact_depth" | "cshape_centre",
+/// `unseen_*` keys fill CShapeParams::unseen. The result passes CShapeParams::validate() or
+/// this throws std::runtime_error with its reason.
+CShapeParams cshapeParamsFromYaml(const YAML::Node& section);
+
+/// Reads the `boundary:` section the same way; `unseen_*` keys fill BoundaryParams::unseen. The
+/// result passes BoundaryParams::validate() or this throws std::runtime_error with its reason.
+BoundaryParams boundaryParamsFromYaml(const YAML::Node& section);
+/// Reads the `concavity:` section the same way; `unseen_*` keys fill ConcavityParams::unseen.
+/// The result passes ConcavityParams::validate() or this throws std::runtime_error with its
+/// reason.
+ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
+
+/// Every planner's parameters from one grasp_planners.yaml.
+struct GraspPlannerConfig
+{
+  PrincipalAxisParams principal_axis;
+  CShapeParams cshape;
+  BoundaryParams boundary;
+  ConcavityParams concavity;
+};
+
+/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:` and `concavity:`
+/// sections (any may be absent: defaults). Top-level keys other than those sections are the nodelets' shared
+/// settings and are ignored here. Throws std::runtime_error with the file name on a missing or
+/// unparsable file and on any error of the two functions above.
+GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
+
+/// Every grasp algorithm by its name(): principal_axis, cshape, boundary, concavity.
+const std::vector<std::string>& graspAlgorithmNames();
+
+/// The planner named `algorithm` with its section of `config`; nullptr for an unknown name.
+/// The one place the tools turn a name into a planner.
+std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config);
+
+}  // namespace fast_grasp

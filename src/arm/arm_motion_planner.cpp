@@ -1,0 +1,456 @@
+#include "fast_grasp/arm/arm_motion_planner.h"
+
+#include "fast_grasp/core/grasp_types.h"
+
+#include <ompl/base/goals/GoalStates.h>
+#include <ompl/base/spaces/RealVectorStateProjections.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/util/Console.h>
+#include <ompl/geometric/planners/est/BiEST.h>
+#include <ompl/geometric/planners/est/EST.h>
+#include <ompl/geometric/planners/est/ProjEST.h>
+#include <ompl/geometric/planners/fmt/BFMT.h>
+#include <ompl/geometric/planners/fmt/FMT.h>
+#include <ompl/geometric/planners/kpiece/BKPIECE1.h>
+#include <ompl/geometric/planners/kpiece/KPIECE1.h>
+#include <ompl/geometric/planners/kpiece/LBKPIECE1.h>
+#include <ompl/geometric/planners/pdst/PDST.h>
+#include <ompl/geometric/planners/prm/LazyPRM.h>
+#include <ompl/geometric/planners/prm/LazyPRMstar.h>
+#include <ompl/geometric/planners/prm/PRM.h>
+#include <ompl/geometric/planners/prm/PRMstar.h>
+#include <ompl/geometric/planners/prm/SPARS.h>
+#include <ompl/geometric/planners/prm/SPARStwo.h>
+#include <ompl/geometric/planners/rrt/BiTRRT.h>
+#include <ompl/geometric/planners/rrt/LBTRRT.h>
+#include <ompl/geometric/planners/rrt/RRT.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/geometric/planners/rrt/TRRT.h>
+#include <ompl/geometric/planners/sbl/SBL.h>
+#include <ompl/geometric/planners/stride/STRIDE.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+
+namespace fast_grasp
+{
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+namespace
+{
+Eigen::VectorXd toEigen(const ob::State* state, std::size_t dof)
+{
+  const auto* values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+  return Eigen::Map<const Eigen::VectorXd>(values, static_cast<Eigen::Index>(dof));
+}
+
+void fromEigen(const Eigen::VectorXd& q, ob::State* state)
+{
+  auto* values = state->as<ob::RealVectorStateSpace::StateType>()->values;
+  for (Eigen::Index j = 0; j < q.size(); ++j)
+    values[j] = q[j];
+}
+
+/// Stateless (hence thread-safe) validity: everything is recomputed from the state (the only
+/// scratch is per thread).
+class ArmValidityChecker : public ob::StateValidityChecker
+{
+public:
+  ArmValidityChecker(const ob::SpaceInformationPtr& si, const ArmMotionPlanner& planner, MotionPlanningParams params)
+    : ob::StateValidityChecker(si), planner_(planner), params_(std::move(params))
+  {
+  }
+  bool isValid(const ob::State* state) const override
+  {
+    // Per-thread joint vector: this runs for every state a planner checks, and a heap
+    // allocation per call showed up in the profile.
+    thread_local Eigen::VectorXd q;
+    const std::size_t dof = planner_.collision().kinematics().dof();
+    q = Eigen::Map<const Eigen::VectorXd>(state->as<ob::RealVectorStateSpace::StateType>()->values,
+                                          static_cast<Eigen::Index>(dof));
+    return planner_.isValid(q, params_);
+  }
+
+private:
+  const ArmMotionPlanner& planner_;
+  const MotionPlanningParams params_;
+};
+
+/// Uniform sampling followed by a few damped Gauss-Newton steps that turn the grasp frame's
+/// Z axis to the vertical. Without it, uniform joint samples satisfy a 0.1 rad tilt bound
+/// about 0.5 % of the time (1 - cos 0.1 of the sphere); the validity checker still rejects
+/// any state outside the bound, so this only makes the constrained search efficient.
+class HorizontalGripperSampler : public ob::StateSampler
+{
+public:
+  HorizontalGripperSampler(const ob::StateSpace* space, const ArmKinematics& kinematics, double tolerance_rad)
+    : ob::StateSampler(space), base_(space), kinematics_(kinematics), tolerance_rad_(tolerance_rad)
+  {
+  }
+  void sampleUniform(ob::State* state) override
+  {
+    base_.sampleUniform(state);
+    project(state);
+  }
+  void sampleUniformNear(ob::State* state, const ob::State* near, double distance) override
+  {
+    base_.sampleUniformNear(state, near, distance);
+    project(state);
+  }
+  void sampleGaussian(ob::State* state, const ob::State* mean, double stdDev) override
+  {
+    base_.sampleGaussian(state, mean, stdDev);
+    project(state);
+  }
+
+private:
+  void project(ob::State* state)
+  {
+    Eigen::VectorXd q = toEigen(state, kinematics_.dof());
+    for (int it = 0; it < 10; ++it)
+    {
+      const Eigen::Vector3d z = kinematics_.fk(q).linear().col(2);
+      const Eigen::Vector3d up(0.0, 0.0, z.z() >= 0.0 ? 1.0 : -1.0);
+      const double angle = std::acos(std::min(1.0, std::abs(z.z())));
+      if (angle < 0.25 * tolerance_rad_)
+        break;
+      const Eigen::Vector3d w = z.cross(up).normalized() * angle;
+      const Eigen::MatrixXd jw = kinematics_.jacobian(q).bottomRows(3);
+      Eigen::Matrix3d jjt = jw * jw.transpose();
+      jjt.diagonal().array() += 1e-4;
+      q += jw.transpose() * jjt.ldlt().solve(w);
+      kinematics_.wrapIntoLimits(q);
+      q = q.cwiseMax(kinematics_.lowerLimits()).cwiseMin(kinematics_.upperLimits());
+    }
+    fromEigen(q, state);
+  }
+
+  ob::RealVectorStateSampler base_;
+  const ArmKinematics& kinematics_;
+  double tolerance_rad_;
+};
+
+/// Joint space whose segment count for motion validation also bounds the Cartesian motion
+/// of every robot point (see MotionPlanningParams::max_cartesian_step_m).
+class ArmStateSpace : public ob::RealVectorStateSpace
+{
+public:
+  ArmStateSpace(unsigned dof, Eigen::VectorXd lever_arms_m, double max_cartesian_step_m)
+    : ob::RealVectorStateSpace(dof), lever_arms_m_(std::move(lever_arms_m)), max_cartesian_step_m_(max_cartesian_step_m)
+  {
+  }
+  unsigned int validSegmentCount(const ob::State* s1, const ob::State* s2) const override
+  {
+    const unsigned int by_fraction = ob::RealVectorStateSpace::validSegmentCount(s1, s2);
+    if (max_cartesian_step_m_ <= 0.0)
+      return by_fraction;
+    const double* a = s1->as<StateType>()->values;
+    const double* b = s2->as<StateType>()->values;
+    double sweep_m = 0.0;
+    for (Eigen::Index j = 0; j < lever_arms_m_.size(); ++j)
+      sweep_m += std::abs(b[j] - a[j]) * lever_arms_m_[j];
+    return std::max(by_fraction, static_cast<unsigned int>(std::ceil(sweep_m / max_cartesian_step_m_)));
+  }
+
+private:
+  Eigen::VectorXd lever_arms_m_;
+  double max_cartesian_step_m_;
+};
+
+template <typename PlannerT>
+ob::PlannerPtr make(const ob::SpaceInformationPtr& si)
+{
+  return std::make_shared<PlannerT>(si);
+}
+}  // namespace
+
+const char* toString(MotionPlanStatus status)
+{
+  switch (status)
+  {
+    case MotionPlanStatus::Success: return "success";
+    case MotionPlanStatus::InvalidInput: return "invalid input";
+    case MotionPlanStatus::UnknownPlanner: return "unknown planner";
+    case MotionPlanStatus::StartInvalid: return "start state invalid";
+    case MotionPlanStatus::GoalInvalid: return "goal state invalid";
+    case MotionPlanStatus::NoPath: return "no path in time";
+  }
+  return "unknown";
+}
+
+ArmMotionPlanner::ArmMotionPlanner(const RobotCollision& collision) : collision_(collision)
+{
+  if (ompl::msg::getLogLevel() < ompl::msg::LOG_WARN)
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+}
+
+const std::vector<std::string>& ArmMotionPlanner::plannerNames()
+{
+  static const std::vector<std::string> names = { "SBL",     "EST",         "BiEST", "ProjEST", "KPIECE",  "BKPIECE",
+                                                  "LBKPIECE", "RRT",        "RRTConnect", "PDST", "STRIDE", "PRM",
+                                                  "LazyPRM", "RRTstar",     "PRMstar", "LazyPRMstar", "FMT", "BFMT",
+                                                  "LBTRRT",  "TRRT",        "BiTRRT", "SPARS", "SPARStwo" };
+  return names;
+}
+
+ob::PlannerPtr ArmMotionPlanner::allocatePlanner(const std::string& name, const ob::SpaceInformationPtr& si,
+                                                 const PlannerParameterTable& table,
+                                                 std::vector<std::string>* unknown_params)
+{
+  using Factory = std::function<ob::PlannerPtr(const ob::SpaceInformationPtr&)>;
+  static const std::map<std::string, Factory> factories = {
+    { "SBL", make<og::SBL> },           { "EST", make<og::EST> },
+    { "BiEST", make<og::BiEST> },       { "ProjEST", make<og::ProjEST> },
+    { "KPIECE", make<og::KPIECE1> },    { "BKPIECE", make<og::BKPIECE1> },
+    { "LBKPIECE", make<og::LBKPIECE1> }, { "RRT", make<og::RRT> },
+    { "RRTConnect", make<og::RRTConnect> }, { "PDST", make<og::PDST> },
+    { "STRIDE", make<og::STRIDE> },     { "PRM", make<og::PRM> },
+    { "LazyPRM", make<og::LazyPRM> },   { "RRTstar", make<og::RRTstar> },
+    { "PRMstar", make<og::PRMstar> },   { "LazyPRMstar", make<og::LazyPRMstar> },
+    { "FMT", make<og::FMT> },           { "BFMT", make<og::BFMT> },
+    { "LBTRRT", make<og::LBTRRT> },     { "TRRT", make<og::TRRT> },
+    { "BiTRRT", make<og::BiTRRT> },     { "SPARS", make<og::SPARS> },
+    { "SPARStwo", make<og::SPARStwo> },
+  };
+  const auto factory = factories.find(name);
+  if (factory == factories.end())
+    return nullptr;
+  ob::PlannerPtr planner = factory->second(si);
+  const auto params = table.find(name);
+  if (params != table.end())
+  {
+    for (const auto& kv : params->second)
+    {
+      if (!planner->params().hasParam(kv.first) || !planner->params().setParam(kv.first, kv.second))
+      {
+        if (unknown_params)
+          unknown_params->push_back(name + "." + kv.first);
+      }
+    }
+  }
+  return planner;
+}
+
+double ArmMotionPlanner::gripperTiltRad(const Eigen::VectorXd& q) const
+{
+  const Eigen::Vector3d z = collision_.kinematics().fk(q).linear().col(2);
+  return std::acos(std::min(1.0, std::abs(z.z())));
+}
+
+bool ArmMotionPlanner::isValid(const Eigen::VectorXd& q, const MotionPlanningParams& params, std::string* why) const
+{
+  const ArmKinematics& kin = collision_.kinematics();
+  if (!kin.withinLimits(q, 1e-9))
+  {
+    if (why)
+      *why = "outside the joint limits (or wrong size / NaN)";
+    return false;
+  }
+  if (params.keep_gripper_horizontal && gripperTiltRad(q) > params.horizontal_tolerance_rad)
+  {
+    if (why)
+      *why = "gripper not horizontal";
+    return false;
+  }
+  return !collision_.inCollision(q, CollisionCheckOptions(), why);
+}
+
+std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::VectorXd& start,
+                                                             const std::vector<Eigen::VectorXd>& goals,
+                                                             const MotionPlanningParams& params) const
+{
+  const ArmKinematics& kin = collision_.kinematics();
+  const unsigned dof = static_cast<unsigned>(kin.dof());
+  auto space = std::make_shared<ArmStateSpace>(dof, collision_.jointLeverArms(), params.max_cartesian_step_m);
+  ob::RealVectorBounds bounds(dof);
+  for (unsigned j = 0; j < dof; ++j)
+  {
+    bounds.setLow(j, kin.lowerLimits()[j]);
+    bounds.setHigh(j, kin.upperLimits()[j]);
+  }
+  space->setBounds(bounds);
+  // Projection for the projection-based planners (KPIECE, SBL, EST, PDST, STRIDE): the two
+  // proximal joints, which move the arm most (MoveIt's default choice too).
+  space->registerDefaultProjection(std::make_shared<ob::RealVectorOrthogonalProjectionEvaluator>(
+      space.get(), std::vector<unsigned>{ 0u, std::min(1u, dof - 1) }));
+  if (params.keep_gripper_horizontal)
+  {
+    const ArmKinematics* kin_ptr = &kin;
+    const double tol = params.horizontal_tolerance_rad;
+    space->setStateSamplerAllocator([kin_ptr, tol](const ob::StateSpace* s) -> ob::StateSamplerPtr {
+      return std::make_shared<HorizontalGripperSampler>(s, *kin_ptr, tol);
+    });
+  }
+  auto setup = std::make_shared<og::SimpleSetup>(space);
+  setup->setStateValidityChecker(
+      std::make_shared<ArmValidityChecker>(setup->getSpaceInformation(), *this, params));
+  setup->getSpaceInformation()->setStateValidityCheckingResolution(params.longest_valid_segment_fraction);
+  ob::ScopedState<> start_state(space);
+  fromEigen(start, start_state.get());
+  setup->setStartState(start_state);
+  auto goal_states = std::make_shared<ob::GoalStates>(setup->getSpaceInformation());
+  for (const Eigen::VectorXd& g : goals)
+  {
+    ob::ScopedState<> goal_state(space);
+    fromEigen(g, goal_state.get());
+    goal_states->addState(goal_state);
+  }
+  setup->setGoal(goal_states);
+  return setup;
+}
+
+MotionPlanResult ArmMotionPlanner::plan(const Eigen::VectorXd& start, const std::vector<Eigen::VectorXd>& goals,
+                                        const MotionPlanningParams& params) const
+{
+  const Stopwatch clock;
+  MotionPlanResult result;
+  const std::size_t dof = collision_.kinematics().dof();
+  if (start.size() != static_cast<Eigen::Index>(dof) || !start.allFinite() || goals.empty())
+  {
+    result.message = "start must have " + std::to_string(dof) + " finite joints and at least one goal is needed";
+    return result;
+  }
+  const auto& names = plannerNames();
+  if (std::find(names.begin(), names.end(), params.planner) == names.end())
+  {
+    result.status = MotionPlanStatus::UnknownPlanner;
+    result.message = "unknown planner '" + params.planner + "'";
+    return result;
+  }
+  std::string why;
+  if (!isValid(start, params, &why))
+  {
+    result.status = MotionPlanStatus::StartInvalid;
+    result.message = "start state invalid: " + why;
+    return result;
+  }
+  std::vector<Eigen::VectorXd> valid_goals;
+  for (const Eigen::VectorXd& g : goals)
+    if (g.size() == static_cast<Eigen::Index>(dof) && isValid(g, params, &why))
+      valid_goals.push_back(g);
+  if (valid_goals.empty())
+  {
+    result.status = MotionPlanStatus::GoalInvalid;
+    result.message = "every goal state is invalid (last: " + why + ")";
+    return result;
+  }
+
+  // Lazy validation: the planner runs with the thesis's coarse motion check (fast), then every
+  // segment of its path is checked with the sound validator (no robot point moves more than
+  // max_cartesian_step_m between checks); a failing segment is re-planned locally with the
+  // sound validator, which is quick because its ends are valid and close. A path that cannot
+  // be repaired is dropped and the planner runs again within the budget.
+  MotionPlanningParams coarse = params;
+  if (params.lazy_validation)
+    coarse.max_cartesian_step_m = 0.0;
+  const std::shared_ptr<og::SimpleSetup> sound = makeSetup(start, valid_goals, params);
+  sound->setPlanner(allocatePlanner("RRTConnect", sound->getSpaceInformation(), params.planner_params));
+  sound->setup();
+  const ob::SpaceInformationPtr sound_si = sound->getSpaceInformation();
+  const std::shared_ptr<og::SimpleSetup> setup = params.lazy_validation ? makeSetup(start, valid_goals, coarse) : sound;
+  ob::PlannerPtr planner = allocatePlanner(params.planner, setup->getSpaceInformation(), params.planner_params);
+  setup->setPlanner(planner);
+  setup->setup();
+
+  auto remaining = [&]() { return params.planning_time_s - clock.elapsedSeconds(); };
+  // Returns the repaired path, or an empty one.
+  auto repair = [&](const og::PathGeometric& path) {
+    std::vector<Eigen::VectorXd> out;
+    out.push_back(toEigen(path.getState(0), dof));
+    for (std::size_t k = 0; k + 1 < path.getStateCount(); ++k)
+    {
+      const ob::State* a = path.getState(k);
+      const ob::State* b = path.getState(k + 1);
+      if (sound_si->checkMotion(a, b))
+      {
+        out.push_back(toEigen(b, dof));
+        continue;
+      }
+      ++result.repaired_segments;
+      const std::shared_ptr<og::SimpleSetup> local =
+          makeSetup(toEigen(a, dof), { toEigen(b, dof) }, params);
+      local->setPlanner(allocatePlanner("RRTConnect", local->getSpaceInformation(), params.planner_params));
+      local->setup();
+      if (remaining() <= 0.0 || local->solve(remaining()) != ob::PlannerStatus::EXACT_SOLUTION)
+        return std::vector<Eigen::VectorXd>();
+      local->simplifySolution(std::max(0.005, std::min(0.05, remaining())));
+      const og::PathGeometric& detour = local->getSolutionPath();
+      for (std::size_t i = 1; i < detour.getStateCount(); ++i)
+        out.push_back(toEigen(detour.getState(i), dof));
+    }
+    return out;
+  };
+  int rejected_paths = 0;
+  while (true)
+  {
+    const ob::PlannerStatus status =
+        remaining() > 0.0 ? setup->solve(remaining()) : ob::PlannerStatus(ob::PlannerStatus::TIMEOUT);
+    if (status != ob::PlannerStatus::EXACT_SOLUTION || !setup->haveExactSolutionPath())
+    {
+      result.status = MotionPlanStatus::NoPath;
+      result.message = std::string("no exact path within ") + std::to_string(params.planning_time_s) + " s (" +
+                       status.asString() +
+                       (rejected_paths ? ", " + std::to_string(rejected_paths) + " paths could not be repaired" :
+                                         std::string()) +
+                       ")";
+      result.planning_time_s = clock.elapsedSeconds();
+      return result;
+    }
+    if (params.simplify)
+      setup->simplifySolution(std::max(0.01, std::min(params.simplify_time_s, std::max(0.0, remaining()))));
+    result.path = params.lazy_validation ? repair(setup->getSolutionPath()) : std::vector<Eigen::VectorXd>();
+    if (!params.lazy_validation)
+    {
+      const og::PathGeometric& path = setup->getSolutionPath();
+      for (std::size_t k = 0; k < path.getStateCount(); ++k)
+        result.path.push_back(toEigen(path.getState(k), dof));
+    }
+    if (!result.path.empty())
+      break;
+    ++rejected_paths;
+    setup->clear();  // drop the planner's data and the rejected solution, then try again
+  }
+  result.path_length_rad = 0.0;
+  for (std::size_t k = 1; k < result.path.size(); ++k)
+    result.path_length_rad += (result.path[k] - result.path[k - 1]).norm();
+  result.planning_time_s = clock.elapsedSeconds();
+  result.status = MotionPlanStatus::Success;
+  result.message = params.planner + ": " + std::to_string(result.path.size()) + " waypoints";
+  return result;
+}
+
+PlannerParameterTable loadPlannerParameters(const std::string& yaml_path)
+{
+  YAML::Node root;
+  try
+  {
+    root = YAML::LoadFile(yaml_path);
+  }
+  catch (const std::exception& e)
+  {
+    throw std::runtime_error("planner parameters '" + yaml_path + "': " + e.what());
+  }
+  PlannerParameterTable table;
+  if (!root.IsMap())
+    throw std::runtime_error("planner parameters '" + yaml_path + "': expected a map of planner names");
+  for (const auto& planner : root)
+  {
+    const std::string name = planner.first.as<std::string>();
+    auto& entry = table[name];
+    if (planner.second.IsNull())
+      continue;
+    if (!planner.second.IsMap())
+      throw std::runtime_error("planner parameters '" + yaml_path + "': entry '" + name + "' is not a map");
+    for (const auto& kv : planner.second)
+      entry[kv.first.as<std::string>()] = kv.second.as<std::string>();
+  }
+  return table;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,347 @@
+#include "fast_grasp/grasping/grasp_planner_params.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <set>
+#include <stdexcept>
+
+namespace fast_grasp
+{
+namespace
+{
+/// Reads typed keys of one section and remembers which were read, so that any other key
+/// (a typo such as `sweep_step: 0.002`) is reported instead of silently ignored.
+class SectionReader
+{
+public:
+  SectionReader(const YAML::Node& section, std::string name) : section_(section), name_(std::move(name))
+  {
+    if (section_ && !section_.IsNull() && !section_.IsMap())
+      throw std::runtime_error(name_ + ": expected a map of parameters");
+  }
+
+  template <typename T>
+  void read(const char* key, T& value)
+  {
+    known_.insert(key);
+    if (!section_ || section_.IsNull() || !section_.IsMap())
+      return;
+    const YAML::Node node = section_[key];
+    if (!node)
+      return;
+    try
+    {
+      value = node.as<T>();
+    }
+    catch (const YAML::Exception&)
+    {
+      throw std::runtime_error(where(key) + ": cannot read '" + YAML::Dump(node) + "' as " + typeName<T>());
+    }
+  }
+
+  void readPositive(const char* key, double& value)
+  {
+    read(key, value);
+    if (!(value > 0.0) || !std::isfinite(value))
+      throw std::runtime_error(where(key) + " must be a positive number");
+  }
+
+  void readNonNegative(const char* key, double& value)
+  {
+    read(key, value);
+    if (!(value >= 0.0) || !std::isfinite(value))
+      throw std::runtime_error(where(key) + " must be >= 0");
+  }
+
+  /// Counts (min_points, max_grasps) are size_t in the planners; YAML gives signed numbers.
+  void readCount(const char* key, std::size_t& value, long long minimum)
+  {
+    long long signed_value = static_cast<long long>(value);
+    read(key, signed_value);
+    if (signed_value < minimum)
+      throw std::runtime_error(where(key) + " must be >= " + std::to_string(minimum));
+    value = static_cast<std::size_t>(signed_value);
+  }
+
+  void readCount(const char* key, int& value, int minimum)
+  {
+    read(key, value);
+    if (value < minimum)
+      throw std::runtime_error(where(key) + " must be >= " + std::to_string(minimum));
+  }
+
+  void rejectUnknownKeys() const
+  {
+    if (!section_ || !section_.IsMap())
+      return;
+    for (const auto& entry : section_)
+    {
+      const std::string key = entry.first.as<std::string>();
+      if (known_.count(key) == 0)
+        throw std::runtime_error(where(key.c_str()) + ": unknown parameter");
+    }
+  }
+
+  std::string where(const char* key) const { return name_ + "/" + key; }
+
+  /// A nested map read by another SectionReader.
+  YAML::Node child(const char* key)
+  {
+    known_.insert(key);
+    if (!section_ || section_.IsNull() || !section_.IsMap())
+      return YAML::Node();
+    return section_[key];
+  }
+
+private:
+  template <typename T>
+  static const char* typeName()
+  {
+    if constexpr (std::is_same_v<T, bool>)
+      return "a boolean";
+    else if constexpr (std::is_same_v<T, std::string>)
+      return "a string";
+    else if constexpr (std::is_integral_v<T>)
+      return "an integer";
+    else
+      return "a number";
+  }
+
+  const YAML::Node section_;
+  const std::string name_;
+  std::set<std::string> known_;
+};
+
+/// The unseen-part keys every planner with an unseen part shares (`use_unseen_part`,
+/// `unseen_*` = UnseenPartParams), so they mean the same in each section.
+void readUnseenPart(SectionReader& reader, bool& use_unseen_part, UnseenPartParams& unseen)
+{
+  reader.read("use_unseen_part", use_unseen_part);
+  reader.read("unseen_extension_m", unseen.extension_m);
+  reader.read("unseen_step_m", unseen.step_m);
+  reader.read("unseen_grid_cell_m", unseen.grid_cell_m);
+  reader.read("unseen_min_grid_cell_m", unseen.min_grid_cell_m);
+  reader.read("unseen_depth_jump_m", unseen.depth_jump_m);
+  reader.read("unseen_max_grid_cells_per_side", unseen.max_grid_cells_per_side);
+  reader.read("unseen_table_clearance_m", unseen.table_clearance_m);
+}
+
+/// The `gripper_fit:` map of every planner (GripperFitParams).
+GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
+{
+  GripperFitParams p;
+  SectionReader reader(parent.child("gripper_fit"), std::string(planner) + "/gripper_fit");
+  reader.read("enabled", p.enabled);
+  reader.readNonNegative("approach_opening_m", p.approach_opening_m);
+  reader.readNonNegative("palm_clearance_m", p.palm_clearance_m);
+  reader.readNonNegative("max_backoff_m", p.max_backoff_m);
+  reader.readNonNegative("table_clearance_m", p.table_clearance_m);
+  reader.readCount("min_points_between_fingers", p.min_points_between_fingers, 1);
+  reader.readNonNegative("closing_margin_m", p.closing_margin_m);
+  reader.rejectUnknownKeys();
+  return p;
+}
+}  // namespace
+
+PrincipalAxisParams principalAxisParamsFromYaml(const YAML::Node& section)
+{
+  PrincipalAxisParams p;
+  SectionReader reader(section, "principal_axis");
+  reader.readPositive("sweep_step_m", p.sweep_step_m);
+  reader.readPositive("grid_cell_m", p.grid_cell_m);
+  reader.readCount("gap_close_rows", p.gap_close_rows, 0);
+  reader.readCount("crossing_window_rows", p.crossing_window_rows, 0);
+  reader.readNonNegative("side_depth_m", p.side_depth_m);
+  reader.readNonNegative("end_clearance_m", p.end_clearance_m);
+  reader.readPositive("force_balance_max_rad", p.force_balance_max_rad);
+  reader.readPositive("xoz_max_offset_m", p.xoz_max_offset_m);
+  reader.readNonNegative("min_axis_view_angle_rad", p.min_axis_view_angle_rad);
+  reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.read("two_camera_mode", p.two_camera_mode);
+  reader.readPositive("virtual_view_step_rad", p.virtual_view_step_rad);
+  reader.read("next_view_from_above", p.next_view_from_above);
+  reader.readNonNegative("next_view_min_turn_rad", p.next_view_min_turn_rad);
+  reader.readNonNegative("next_view_max_face_rms_ratio", p.next_view_max_face_rms_ratio);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  p.gripper_fit = gripperFitFromYaml(reader, "principal_axis");
+  reader.rejectUnknownKeys();
+  return p;
+}
+
+CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
+{
+  CShapeParams p;
+  SectionReader reader(section, "cshape");
+  reader.read("angle_increment_rad", p.angle_increment_rad);
+  reader.read("normal_downsample_radius_m", p.normal_downsample_radius_m);
+  reader.read("obstacle_leaf_m", p.obstacle_leaf_m);
+  reader.read("local_axis_radius_m", p.local_axis_radius_m);
+  reader.read("max_grasps", p.max_grasps);
+  reader.read("time_budget_s", p.time_budget_s);
+  long long seed = p.seed;
+  reader.read("seed", seed);
+  if (seed < 0 || seed > static_cast<long long>(std::numeric_limits<std::uint32_t>::max()))
+    throw std::runtime_error(reader.where("seed") + " must be in [0, 2^32)");
+  p.seed = static_cast<std::uint32_t>(seed);
+  reader.read("variance_threshold_m", p.variance_threshold_m);
+  reader.read("side_bins", p.side_bins);
+  reader.read("min_side_bins", p.min_side_bins);
+  reader.read("force_balance_threshold_rad", p.force_balance_threshold_rad);
+  reader.read("contact_tolerance_m", p.contact_tolerance_m);
+  reader.read("collision_clearance_m", p.collision_clearance_m);
+  std::string depth_rule = p.depth_rule == CShapeParams::DepthRule::CShapeCentre ? "cshape_centre" : "contact_depth";
+  reader.read("depth_rule", depth_rule);
+  if (depth_rule == "contact_depth")
+    p.depth_rule = CShapeParams::DepthRule::ContactDepth;
+  else if (depth_rule == "cshape_centre")
+    p.depth_rule = CShapeParams::DepthRule::CShapeCentre;
+  else
+    throw std::runtime_error(reader.where("depth_rule") + ": '" + depth_rule +
+                             "' is neither contact_depth nor cshape_centre");
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
+  reader.read("check_table_clearance", p.check_table_clearance);
+  reader.read("table_clearance_m", p.table_clearance_m);
+  reader.read("min_fingertip_overlap_m", p.min_fingertip_overlap_m);
+  reader.read("from_above_weight_rad", p.from_above_weight_rad);
+  reader.read("coarse_screen_factor", p.coarse_screen_factor);
+  reader.read("variance_weight_rad_per_m", p.variance_weight_rad_per_m);
+  reader.read("torque_weight_rad_per_m", p.torque_weight_rad_per_m);
+  reader.read("unseen_width_weight_rad_per_m", p.unseen_width_weight_rad_per_m);
+  reader.read("shallow_weight_rad_per_m", p.shallow_weight_rad_per_m);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.read("min_thickness_m", p.min_thickness_m);
+  reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  p.gripper_fit = gripperFitFromYaml(reader, "cshape");
+  reader.rejectUnknownKeys();
+  // The planner owns the rules on its parameters; apply them here so a bad file fails at load.
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("cshape: " + problem);
+  return p;
+}
+
+BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
+{
+  BoundaryParams p;
+  SectionReader reader(section, "boundary");
+  reader.readPositive("grid_cell_m", p.grid_cell_m);
+  reader.readNonNegative("spacing_cell_factor", p.spacing_cell_factor);
+  reader.readCount("close_cells", p.close_cells, 0);
+  reader.readPositive("step_m", p.step_m);
+  reader.readCount("max_finger_candidates", p.max_finger_candidates, 2);
+  reader.readNonNegative("finger_width_m", p.finger_width_m);
+  reader.readPositive("inside_probe_step_m", p.inside_probe_step_m);
+  reader.readCount("inside_probe_max_steps", p.inside_probe_max_steps, 1);
+  reader.readNonNegative("force_balance_max_rad", p.force_balance_max_rad);
+  reader.readNonNegative("torque_offset_max_m", p.torque_offset_max_m);
+  reader.readNonNegative("opening_margin_m", p.opening_margin_m);
+  reader.readNonNegative("variance_max_m", p.variance_max_m);
+  reader.readNonNegative("operability_tolerance_m", p.operability_tolerance_m);
+  reader.readNonNegative("force_balance_weight_m_per_rad", p.force_balance_weight_m_per_rad);
+  reader.readNonNegative("torque_weight", p.torque_weight);
+  reader.readNonNegative("variance_weight", p.variance_weight);
+  reader.readNonNegative("width_weight", p.width_weight);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readNonNegative("max_normal_sight_angle_rad", p.max_normal_sight_angle_rad);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
+  p.gripper_fit = gripperFitFromYaml(reader, "boundary");
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("boundary: " + problem);
+  return p;
+}
+
+ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
+{
+  ConcavityParams p;
+  SectionReader reader(section, "concavity");
+  reader.readNonNegative("voxel_leaf_m", p.voxel_leaf_m);
+  reader.readCount("max_analysis_points", p.max_analysis_points, 100);
+  reader.readPositive("min_concavity_m", p.min_concavity_m);
+  reader.readPositive("cluster_tolerance_m", p.cluster_tolerance_m);
+  reader.readCount("min_region_points", p.min_region_points, 1);
+  reader.readCount("max_regions", p.max_regions, 1);
+  reader.readNonNegative("max_approach_view_angle_rad", p.max_approach_view_angle_rad);
+  reader.readPositive("grid_cell_m", p.grid_cell_m);
+  reader.readPositive("step_m", p.step_m);
+  reader.readNonNegative("hand_width_m", p.hand_width_m);
+  reader.readNonNegative("boundary_tolerance_m", p.boundary_tolerance_m);
+  reader.readPositive("gap_m", p.gap_m);
+  reader.readCount("side_bins", p.side_bins, 2);
+  reader.readCount("min_side_bins", p.min_side_bins, 2);
+  reader.readNonNegative("side_depth_m", p.side_depth_m);
+  reader.readPositive("force_balance_max_rad", p.force_balance_max_rad);
+  reader.readNonNegative("view_alignment_weight", p.view_alignment_weight);
+  reader.readNonNegative("duplicate_distance_m", p.duplicate_distance_m);
+  readUnseenPart(reader, p.use_unseen_part, p.unseen);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.readNonNegative("min_thickness_m", p.min_thickness_m);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
+  p.gripper_fit = gripperFitFromYaml(reader, "concavity");
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("concavity: " + problem);
+  return p;
+}
+
+GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
+{
+  YAML::Node root;
+  try
+  {
+    root = YAML::LoadFile(yaml_path);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw std::runtime_error("cannot read planner parameters '" + yaml_path + "': " + e.what());
+  }
+  if (root && !root.IsNull() && !root.IsMap())
+    throw std::runtime_error("planner parameters '" + yaml_path + "': expected a map at the top level");
+  GraspPlannerConfig config;
+  try
+  {
+    if (root && root.IsMap())
+    {
+      config.principal_axis = principalAxisParamsFromYaml(root["principal_axis"]);
+      config.cshape = cshapeParamsFromYaml(root["cshape"]);
+      config.boundary = boundaryParamsFromYaml(root["boundary"]);
+      config.concavity = concavityParamsFromYaml(root["concavity"]);
+    }
+  }
+  catch (const std::runtime_error& e)
+  {
+    throw std::runtime_error("planner parameters '" + yaml_path + "': " + e.what());
+  }
+  return config;
+}
+
+const std::vector<std::string>& graspAlgorithmNames()
+{
+  static const std::vector<std::string> names{ "principal_axis", "cshape", "boundary", "concavity" };
+  return names;
+}
+
+std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
+{
+  if (algorithm == "principal_axis")
+    return std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
+  if (algorithm == "cshape")
+    return std::make_unique<CShapeGraspPlanner>(config.cshape);
+  if (algorithm == "boundary")
+    return std::make_unique<BoundaryGraspPlanner>(config.boundary);
+  if (algorithm == "concavity")
+    return std::make_unique<ConcavityGraspPlanner>(config.concavity);
+  return nullptr;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,240 @@
+#include "fast_grasp/grasping/unseen_part.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace fast_grasp
+{
+namespace
+{
+constexpr float kEmpty = std::numeric_limits<float>::infinity();
+
+/// A depth image of the cloud as one camera saw it: per cell the nearest point. Image
+/// coordinates are tangents of the ray angles (pinhole model), so a camera ray is one cell.
+class ViewGrid
+{
+public:
+  template <typename PointT>
+  bool build(const pcl::PointCloud<PointT>& cloud, const std::vector<int>& finite, const Eigen::Vector3f& origin,
+             const Eigen::Vector3f& look_at, double cell_m, double min_cell_m, int max_cells_per_side)
+  {
+    origin_ = origin;
+    forward_ = look_at - origin;
+    if (forward_.norm() < 1e-6f)
+      return false;
+    forward_.normalize();
+    right_ = forward_.unitOrthogonal();
+    up_ = forward_.cross(right_);
+
+    // Image coordinates of every point; points behind the camera cannot be seen by it.
+    std::vector<Eigen::Vector3f> projected;
+    projected.reserve(finite.size());
+    Eigen::Vector2f low(kEmpty, kEmpty);
+    Eigen::Vector2f high(-kEmpty, -kEmpty);
+    double depth_sum = 0.0;
+    for (int index : finite)
+    {
+      const auto& p = cloud.points[static_cast<std::size_t>(index)];
+      const Eigen::Vector3f d = Eigen::Vector3f(p.x, p.y, p.z) - origin_;
+      const float depth = d.dot(forward_);
+      if (depth <= 1e-6f)
+        continue;
+      const Eigen::Vector3f q(d.dot(right_) / depth, d.dot(up_) / depth, depth);
+      projected.push_back(q);
+      indices_.push_back(index);
+      low = low.cwiseMin(q.head<2>());
+      high = high.cwiseMax(q.head<2>());
+      depth_sum += depth;
+    }
+    if (projected.empty())
+      return false;
+    const double mean_depth = depth_sum / static_cast<double>(projected.size());
+    const Eigen::Vector2f extent = (high - low).cwiseMax(1e-9f);
+    if (!(cell_m > 0.0))
+    {
+      // Mean spacing from the projected area; x2.5 so a cell always holds a point inside.
+      const double area_m2 = static_cast<double>(extent.x()) * extent.y() * mean_depth * mean_depth;
+      cell_m = 2.5 * std::sqrt(area_m2 / static_cast<double>(projected.size()));
+      cell_m = std::max({ cell_m, min_cell_m, 1e-4 });
+    }
+    cell_tan_ = static_cast<float>(cell_m / mean_depth);
+    const float max_extent = std::max(extent.x(), extent.y());
+    if (max_extent / cell_tan_ > static_cast<float>(max_cells_per_side - 3))
+      cell_tan_ = max_extent / static_cast<float>(max_cells_per_side - 3);
+    cell_m_ = static_cast<double>(cell_tan_) * mean_depth;
+    // One empty ring around the cloud so the silhouette is always a boundary.
+    low_ = low - Eigen::Vector2f::Constant(cell_tan_);
+    cols_ = static_cast<int>(std::floor(extent.x() / cell_tan_)) + 3;
+    rows_ = static_cast<int>(std::floor(extent.y() / cell_tan_)) + 3;
+    depth_.assign(static_cast<std::size_t>(cols_) * rows_, kEmpty);
+    nearest_.assign(depth_.size(), -1);
+    for (std::size_t i = 0; i < projected.size(); ++i)
+    {
+      const int cell = cellOf(projected[i].head<2>());
+      if (cell >= 0 && projected[i].z() < depth_[cell])
+      {
+        depth_[cell] = projected[i].z();
+        nearest_[cell] = indices_[i];
+      }
+    }
+    return true;
+  }
+
+  /// Cells whose nearest point is on the silhouette or on the near side of a depth jump.
+  std::vector<int> boundaryPoints(double depth_jump_m) const
+  {
+    std::vector<int> boundary;
+    for (int row = 0; row < rows_; ++row)
+      for (int col = 0; col < cols_; ++col)
+      {
+        const float depth = depth_[row * cols_ + col];
+        if (depth == kEmpty)
+          continue;
+        bool is_boundary = false;
+        for (int dr = -1; dr <= 1 && !is_boundary; ++dr)
+          for (int dc = -1; dc <= 1 && !is_boundary; ++dc)
+          {
+            const int r = row + dr;
+            const int c = col + dc;
+            if (r < 0 || c < 0 || r >= rows_ || c >= cols_)
+              is_boundary = true;
+            else
+            {
+              const float neighbour = depth_[r * cols_ + c];
+              is_boundary = neighbour == kEmpty || neighbour - depth > static_cast<float>(depth_jump_m);
+            }
+          }
+        if (is_boundary)
+          boundary.push_back(nearest_[row * cols_ + col]);
+      }
+    return boundary;
+  }
+
+  /// True when this camera sees `p` as free space: outside the object's silhouette, or in
+  /// front of the seen surface by more than `tolerance_m`.
+  bool seesAsFree(const Eigen::Vector3f& p, float tolerance_m) const
+  {
+    const Eigen::Vector3f d = p - origin_;
+    const float depth = d.dot(forward_);
+    if (depth <= 1e-6f)
+      return false;  // behind this camera: it cannot vouch for the point
+    const int cell = cellOf(Eigen::Vector2f(d.dot(right_) / depth, d.dot(up_) / depth));
+    if (cell < 0)
+      return true;
+    return depth_[cell] == kEmpty || depth < depth_[cell] - tolerance_m;
+  }
+
+  double cellMetres() const { return cell_m_; }
+  const Eigen::Vector3f& origin() const { return origin_; }
+
+private:
+  int cellOf(const Eigen::Vector2f& uv) const
+  {
+    const int col = static_cast<int>(std::floor((uv.x() - low_.x()) / cell_tan_));
+    const int row = static_cast<int>(std::floor((uv.y() - low_.y()) / cell_tan_));
+    if (col < 0 || row < 0 || col >= cols_ || row >= rows_)
+      return -1;
+    return row * cols_ + col;
+  }
+
+  Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
+  Eigen::Vector3f forward_ = Eigen::Vector3f::UnitZ();
+  Eigen::Vector3f right_ = Eigen::Vector3f::UnitX();
+  Eigen::Vector3f up_ = Eigen::Vector3f::UnitY();
+  Eigen::Vector2f low_ = Eigen::Vector2f::Zero();
+  float cell_tan_ = 1.0f;
+  double cell_m_ = 0.0;
+  int cols_ = 0;
+  int rows_ = 0;
+  std::vector<int> indices_;
+  std::vector<float> depth_;  // nearest depth per cell, kEmpty if none
+  std::vector<int> nearest_;  // cloud index of that point
+};
+}  // namespace
+
+template <typename PointT>
+UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vector<Eigen::Vector3f>& sensor_origins,
+                           const UnseenPartParams& params, const std::optional<Eigen::Vector4f>& table_plane)
+{
+  UnseenPart unseen;
+  if (sensor_origins.empty())
+  {
+    unseen.failure = "no sensor origin: the unseen part is defined by the camera rays";
+    return unseen;
+  }
+  if (!(params.extension_m >= 0.0) || params.step_m < 0.0 || params.grid_cell_m < 0.0 || params.min_grid_cell_m < 0.0 ||
+      params.max_grid_cells_per_side < 8)
+  {
+    unseen.failure = "invalid UnseenPartParams (negative length or grid smaller than 8 cells)";
+    return unseen;
+  }
+  std::vector<int> finite;
+  finite.reserve(cloud.size());
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+  {
+    const auto& p = cloud.points[i];
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+    {
+      finite.push_back(static_cast<int>(i));
+      sum += Eigen::Vector3d(p.x, p.y, p.z);
+    }
+  }
+  if (finite.empty())
+  {
+    unseen.failure = "no finite point";
+    return unseen;
+  }
+  const Eigen::Vector3f centroid = (sum / static_cast<double>(finite.size())).cast<float>();
+
+  std::vector<ViewGrid> grids(sensor_origins.size());
+  for (std::size_t s = 0; s < sensor_origins.size(); ++s)
+  {
+    const double cell_m = s == 0 ? params.grid_cell_m : grids[0].cellMetres();
+    if (!grids[s].build(cloud, finite, sensor_origins[s], centroid, cell_m, params.min_grid_cell_m,
+                        params.max_grid_cells_per_side))
+    {
+      unseen.failure = "sensor origin " + std::to_string(s) + " coincides with the object or sees none of it";
+      return unseen;
+    }
+  }
+  unseen.grid_cell_m = grids[0].cellMetres();
+  const double step_m = params.step_m > 0.0 ? params.step_m : std::max(unseen.grid_cell_m, 1e-3);
+  const int steps = static_cast<int>(std::ceil(params.extension_m / step_m));
+  const float tolerance_m = static_cast<float>(unseen.grid_cell_m);
+
+  for (std::size_t s = 0; s < grids.size(); ++s)
+  {
+    for (int index : grids[s].boundaryPoints(params.depth_jump_m))
+    {
+      const auto& b = cloud.points[static_cast<std::size_t>(index)];
+      const Eigen::Vector3f start(b.x, b.y, b.z);
+      const Eigen::Vector3f ray = (start - grids[s].origin()).normalized();
+      unseen.boundary_indices.push_back(index);
+      for (int k = 1; k <= steps; ++k)
+      {
+        const Eigen::Vector3f q = start + ray * static_cast<float>(k * step_m);
+        if (table_plane && table_plane->head<3>().dot(q) + (*table_plane)(3) < -params.table_clearance_m)
+          break;  // the ray went into the table; everything farther is inside it too
+        bool hidden_from_all = true;
+        for (std::size_t other = 0; other < grids.size() && hidden_from_all; ++other)
+          if (other != s && grids[other].seesAsFree(q, tolerance_m))
+            hidden_from_all = false;
+        if (hidden_from_all)
+          unseen.points.push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+      }
+    }
+  }
+  unseen.points.width = static_cast<std::uint32_t>(unseen.points.size());
+  unseen.points.height = 1;
+  unseen.points.is_dense = true;
+  return unseen;
+}
+
+template UnseenPart buildUnseenPart(const pcl::PointCloud<pcl::PointXYZ>&, const std::vector<Eigen::Vector3f>&,
+                                    const UnseenPartParams&, const std::optional<Eigen::Vector4f>&);
+template UnseenPart buildUnseenPart(const pcl::PointCloud<pcl::PointNormal>&, const std::vector<Eigen::Vector3f>&,
+                                    const UnseenPartParams&, const std::optional<Eigen::Vector4f>&);
+
+}  // namespace fast_grasp
