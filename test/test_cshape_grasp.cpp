@@ -652,7 +652,7 @@ TEST(CShapeGrasp, BadInputIsATypedFailure)
 
   ObjectView blind = makeObjectView(cylinder, eye);
   blind.sensor_origins.clear();
-  EXPECT_EQ(planner.plan(blind, gripper).failure, GraspFailure::InvalidParameters);
+  EXPECT_EQ(planner.plan(blind, gripper).failure, GraspFailure::DegenerateInput);  // planner_input.h
 }
 
 // ---------------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
 #include "fast_grasp/grasping/boundary_grasp.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
 
@@ -477,27 +478,8 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
     return result;
   };
   const BoundaryParams& p = params_;
-  const std::string params_problem = p.validate();
-  if (!params_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "boundary: " + params_problem));
-  const std::string gripper_problem = gripper.validate();
-  if (!gripper_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "boundary: gripper: " + gripper_problem));
-  if (!view.cloud)
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "boundary: null cloud"));
-
-  std::size_t finite = 0;
-  for (const auto& point : view.cloud->points)
-    finite += std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z);
-  if (finite == 0)
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "boundary: no finite point in the cloud"));
-  if (finite < std::max<std::size_t>(p.min_points, 3))
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "boundary: only " + std::to_string(finite) + " finite points (min_points " +
-                                        std::to_string(p.min_points) + ")"));
-  if (view.sensor_origins.empty() || !view.sensor_origins.front().allFinite())
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "boundary: no (finite) sensor origin: the approach must come from the seen side"));
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("boundary", p.validate(), gripper, view, p.min_points))
+    return finish(*bad_input);
 
   // Ch4.3.1 A-B: main plane (major and middle axis), normal toward the sensor.
   const PrincipalFrame pca = computePrincipalFrame(*view.cloud);
@@ -519,7 +501,7 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
   const Eigen::Vector3d axis_u = pca.axes.col(0).cast<double>().normalized();
   const Eigen::Vector3d axis_v = normal.cross(axis_u);
   std::vector<Eigen::Vector3d> plane_points;
-  plane_points.reserve(finite);
+  plane_points.reserve(view.cloud->size());
   for (const auto& point : view.cloud->points)
     if (std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z))
     {

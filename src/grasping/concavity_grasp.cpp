@@ -1,4 +1,5 @@
 #include "fast_grasp/grasping/concavity_grasp.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
 
@@ -600,32 +601,16 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
     return result;
   };
   const ConcavityParams& p = params_;
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "concavity: " + problem));
-  const std::string gripper_problem = gripper.validate();
-  if (!gripper_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "concavity: gripper: " + gripper_problem));
-  if (!view.cloud)
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "concavity: null cloud"));
+  if (std::optional<GraspResult> bad_input =
+          checkPlannerInput("concavity", p.validate(), gripper, view, std::max<std::size_t>(p.min_points, 4)))
+    return finish(*bad_input);
 
   CloudXYZ::Ptr finite(new CloudXYZ);
   finite->reserve(view.cloud->size());
   for (const PointNormal& q : view.cloud->points)
     if (std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))
       finite->push_back(PointXYZ(q.x, q.y, q.z));
-  if (finite->empty())
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "concavity: no finite point in the cloud"));
-  if (finite->size() < std::max<std::size_t>(p.min_points, 4))
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "concavity: only " + std::to_string(finite->size()) + " finite points"));
-  std::vector<Eigen::Vector3f> sensors;
-  for (const Eigen::Vector3f& origin : view.sensor_origins)
-    if (origin.allFinite())
-      sensors.push_back(origin);
-  if (sensors.empty())
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "concavity: no finite sensor origin: concavity is measured along its rays"));
+  const std::vector<Eigen::Vector3f>& sensors = view.sensor_origins;  // concavity is measured along their rays
   const PrincipalFrame spread = computePrincipalFrame(*finite);
   if (std::sqrt(spread.eigenvalues(1)) < p.min_thickness_m)
     return finish(GraspResult::fail(GraspFailure::DegenerateInput,

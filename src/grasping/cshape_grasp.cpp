@@ -1,4 +1,5 @@
 #include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
 
@@ -924,21 +925,9 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
     return result;
   };
 
-  // Validate before touching anything.
-  const std::string gripper_problem = gripper.validate();
-  if (!gripper_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "invalid gripper: " + gripper_problem));
-  const std::string params_problem = params_.validate();
-  if (!params_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "invalid CShapeParams: " + params_problem));
-  if (!view.cloud)
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "object cloud pointer is null"));
-  if (view.sensor_origins.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters,
-                                    "the view has no sensor origin (needed for normals' side and the unseen part)"));
-  for (const Eigen::Vector3f& origin : view.sensor_origins)
-    if (!origin.allFinite())
-      return finish(GraspResult::fail(GraspFailure::InvalidParameters, "a sensor origin is not finite"));
+  // Validate before touching anything (the sensor origins give the normals' side and the unseen part).
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("cshape", params_.validate(), gripper, view, params_.min_points))
+    return finish(*bad_input);
 
   SearchContext ctx(params_, gripper);
   ctx.sensors = view.sensor_origins;
@@ -971,12 +960,6 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
     ctx.seen->push_back(PointXYZ(q.x, q.y, q.z));
     ctx.normals.push_back(normal);
   }
-  if (ctx.seen->empty())
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "object cloud has no finite point"));
-  if (ctx.seen->size() < params_.min_points)
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "object cloud has only " + std::to_string(ctx.seen->size()) +
-                                        " finite points (need " + std::to_string(params_.min_points) + ")"));
   const PrincipalFrame frame = computePrincipalFrame(*ctx.seen);
   ctx.centroid = frame.centroid;
   if (std::sqrt(frame.eigenvalues(1)) < params_.min_thickness_m)

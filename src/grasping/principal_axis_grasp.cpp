@@ -1,4 +1,5 @@
 #include "fast_grasp/grasping/principal_axis_grasp.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
 
@@ -548,6 +549,15 @@ std::vector<Eigen::Vector3f> virtualViewpoints(const Eigen::Vector3f& centroid, 
   return viewpoints;
 }
 
+std::string PrincipalAxisParams::validate() const
+{
+  if (!(sweep_step_m > 0.0) || !(grid_cell_m > 0.0) || gap_close_rows < 0 || crossing_window_rows < 0 ||
+      !(side_depth_m >= 0.0) || !(force_balance_max_rad >= 0.0) || !(xoz_max_offset_m > 0.0) ||
+      !(virtual_view_step_rad > 0.0) || !(min_thickness_m >= 0.0) || !(end_clearance_m >= 0.0))
+    return "a step, cell or threshold is not positive";
+  return gripper_fit.validate();
+}
+
 GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   const Stopwatch stopwatch;
@@ -556,18 +566,8 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     return result;
   };
   const PrincipalAxisParams& p = params_;
-  if (!(p.sweep_step_m > 0.0) || !(p.grid_cell_m > 0.0) || p.gap_close_rows < 0 || p.crossing_window_rows < 0 || !(p.side_depth_m >= 0.0) ||
-      !(p.force_balance_max_rad >= 0.0) || !(p.xoz_max_offset_m > 0.0) || !(p.virtual_view_step_rad > 0.0) ||
-      !(p.min_thickness_m >= 0.0) || !(p.end_clearance_m >= 0.0))
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "principal_axis: a step, cell or threshold is not positive"));
-  const std::string gripper_problem = gripper.validate();
-  if (!gripper_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "principal_axis: gripper: " + gripper_problem));
-  const std::string fit_params_problem = p.gripper_fit.validate();
-  if (!fit_params_problem.empty())
-    return finish(GraspResult::fail(GraspFailure::InvalidParameters, "principal_axis: " + fit_params_problem));
-  if (!view.cloud)
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "principal_axis: null cloud"));
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("principal_axis", p.validate(), gripper, view, p.min_points))
+    return finish(*bad_input);
 
   // Step 1: finite points and PCA (Eqs. 3.1-3.2).
   std::vector<Eigen::Vector3f> points;
@@ -575,14 +575,6 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
   for (const auto& point : view.cloud->points)
     if (std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z))
       points.emplace_back(point.x, point.y, point.z);
-  if (points.empty())
-    return finish(GraspResult::fail(GraspFailure::EmptyInput, "principal_axis: no finite point in the cloud"));
-  if (points.size() < std::max<std::size_t>(p.min_points, 3))
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "principal_axis: only " + std::to_string(points.size()) + " finite points"));
-  if (view.sensor_origins.empty() || !view.sensor_origins.front().allFinite())
-    return finish(GraspResult::fail(GraspFailure::DegenerateInput,
-                                    "principal_axis: no (finite) sensor origin: the object frame of Eq. 3.3 needs one"));
   const PrincipalFrame pca = computePrincipalFrame(*view.cloud);
   if (std::sqrt(pca.eigenvalues(1)) < p.min_thickness_m)
     return finish(GraspResult::fail(GraspFailure::DegenerateInput, "principal_axis: collinear points, no closing direction"));

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace fast_grasp
@@ -62,6 +63,9 @@ struct PrincipalAxisParams
   /// Final check with the real hand's volume (gripper_volume.h): palm backed out of the
   /// object, fingers free, object between them.
   GripperFitParams gripper_fit;
+
+  /// Empty when every step, cell and threshold is usable; otherwise what is wrong.
+  std::string validate() const;
 };
 
 /// One sweep line y = y_min + n * delta_y (Eq. 3.4) in the object frame and its left-most and

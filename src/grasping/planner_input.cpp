@@ -1,0 +1,38 @@
+#include "fast_grasp/grasping/planner_input.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace fast_grasp
+{
+std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
+                                             const GripperModel& gripper, const ObjectView& view,
+                                             std::size_t min_points)
+{
+  const std::string prefix = planner + ": ";
+  if (!params_problem.empty())
+    return GraspResult::fail(GraspFailure::InvalidParameters, prefix + params_problem);
+  const std::string gripper_problem = gripper.validate();
+  if (!gripper_problem.empty())
+    return GraspResult::fail(GraspFailure::InvalidParameters, prefix + "gripper: " + gripper_problem);
+  if (!view.cloud)
+    return GraspResult::fail(GraspFailure::EmptyInput, prefix + "null cloud");
+  std::size_t finite = 0;
+  for (const auto& point : view.cloud->points)
+    finite += std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z);
+  if (finite == 0)
+    return GraspResult::fail(GraspFailure::EmptyInput, prefix + "no finite point in the cloud");
+  const std::size_t needed = std::max<std::size_t>(min_points, 3);
+  if (finite < needed)
+    return GraspResult::fail(GraspFailure::DegenerateInput, prefix + "only " + std::to_string(finite) +
+                                                                " finite points (min_points " +
+                                                                std::to_string(needed) + ")");
+  const bool origins_finite = std::all_of(view.sensor_origins.begin(), view.sensor_origins.end(),
+                                          [](const Eigen::Vector3f& origin) { return origin.allFinite(); });
+  if (view.sensor_origins.empty() || !origins_finite)
+    return GraspResult::fail(GraspFailure::DegenerateInput,
+                             prefix + "no sensor origin, or one is not finite: the approach must come from the seen side");
+  return std::nullopt;
+}
+
+}  // namespace fast_grasp
