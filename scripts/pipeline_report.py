@@ -4,7 +4,8 @@ the target object (points, centroid, extent), the chosen grasp (or, from the pri
 planner, the next camera pose it suggests when it found none) and, when the arm planner
 runs, the trajectory. Exits once every frame of the bag is reported, or after ~timeout_s.
 
-Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic,
+Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic, report_file
+(write the report there instead of stdout: scripts/demo.sh shows only it and the warnings),
 expect_grasps (bool), expect_trajectory (bool), stop_after_grasp (bool: a live camera, e.g.
 scene_camera following the next view, has no frame count; stop at the first frame with a grasp
 reported in full).
@@ -176,6 +177,9 @@ class Report:
 
 def main():
     rospy.init_node("pipeline_report")
+    report_file = rospy.get_param("~report_file", "")
+    if report_file:
+        sys.stdout = open(report_file, "w", buffering=1)
     bag = rospy.get_param("~bag", "")
     cloud_topic = rospy.get_param("~cloud_topic", "/camera/depth_registered/points")
     timeout_s = rospy.get_param("~timeout_s", 60.0)
@@ -215,6 +219,7 @@ def main():
             print(Report.describe(key, report.frames[key]) + "\n  (incomplete)", flush=True)
     print("pipeline_report: timed out after %.0f s with %d of %d frame(s) reported"
           % (timeout_s, report.printed(), expected), flush=True)
+    sys.exit(1)
 
 
 if __name__ == "__main__":
