@@ -77,4 +77,8 @@ def main(root):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "."))
+    import argparse
+    parser = argparse.ArgumentParser(description="Counts the JUnit test cases under a results folder; "
+                                     "last line 'N passed, N failed'.")
+    parser.add_argument("root", nargs="?", default=".", help="folder of JUnit XML results (default .)")
+    sys.exit(main(parser.parse_args().root))

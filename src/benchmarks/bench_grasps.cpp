@@ -6,6 +6,7 @@
 //
 // Perception and planner parameters are the deployed ones (config/perception.yaml values,
 // config/grasp_planners.yaml or --params).
+#include "command_line.h"
 #include "bag_frames.h"
 #include "offline_pipeline.h"
 
@@ -109,12 +110,19 @@ std::string metrics(const GraspResult& result)
 }
 }  // namespace
 
+const char* const kUsage =
+    "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]\n"
+    "  every grasp planner on every bundled bag's frames: median ms per planner (prints, does not assert)\n";
+
 int main(int argc, char** argv)
 {
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   Options options;
-  for (int i = 1; i + 1 < argc; i += 2)
+  for (int i = 1; i < argc; i += 2)
   {
     const std::string flag = argv[i];
+    if (i + 1 >= argc)
+      fast_grasp::exitWithUsage(flag + " needs a value", kUsage);
     if (flag == "--bags")
       options.bags_dir = argv[i + 1];
     else if (flag == "--repeats")
@@ -124,10 +132,7 @@ int main(int argc, char** argv)
     else if (flag == "--params")
       options.params_file = argv[i + 1];
     else
-    {
-      std::cerr << "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]\n";
-      return 2;
-    }
+      fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
   }
   GripperModel gripper;
   GraspPlannerConfig config;

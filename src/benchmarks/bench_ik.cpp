@@ -2,6 +2,7 @@
 // reachable poses; each is solved from a fixed seed (the zero vector), 5 ms budget, 1e-5 tolerance.
 // Usage: bench_ik [--poses N] [--urdf PATH] [--base LINK] [--tip LINK] [--timeout-ms T] [--seed S]
 // Last line: "ik solved: P % median: X ms".
+#include "command_line.h"
 #include "fast_grasp/arm/arm_kinematics.h"
 
 #include <algorithm>
@@ -15,16 +16,27 @@
 #define FAST_GRASP_SOURCE_DIR "."
 #endif
 
+namespace
+{
+const char* const kUsage =
+    "usage: bench_ik [--poses N] [--urdf FILE] [--base LINK] [--tip LINK] [--timeout-ms MS] [--seed S]\n"
+    "  IK on N random reachable poses (FK of random joint vectors); last line 'ik solved: P % median: X ms'\n";
+}  // namespace
+
 int main(int argc, char** argv)
 {
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   int poses = 1000;
   std::string urdf = std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/ur5_gripper_xtion.urdf";
   std::string base = "base_link", tip = "grasp_frame";
   double timeout_ms = 5.0;
   unsigned seed = 1;
-  for (int i = 1; i + 1 < argc; i += 2)
+  for (int i = 1; i < argc; i += 2)
   {
-    const std::string flag = argv[i], value = argv[i + 1];
+    const std::string flag = argv[i];
+    if (i + 1 >= argc)
+      fast_grasp::exitWithUsage(flag + " needs a value", kUsage);
+    const std::string value = argv[i + 1];
     if (flag == "--poses") poses = std::atoi(value.c_str());
     else if (flag == "--urdf") urdf = value;
     else if (flag == "--base") base = value;
@@ -32,10 +44,7 @@ int main(int argc, char** argv)
     else if (flag == "--timeout-ms") timeout_ms = std::atof(value.c_str());
     else if (flag == "--seed") seed = static_cast<unsigned>(std::atoi(value.c_str()));
     else
-    {
-      std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
-      return 2;
-    }
+      fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
   }
   fast_grasp::ArmKinematics kin;
   try

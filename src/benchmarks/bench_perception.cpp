@@ -6,6 +6,7 @@
 // config/perception.yaml. For reference it also times pcl::fromROSMsg of each frame, the
 // conversion the in-place path avoids.
 //   rosrun fast_grasp bench_perception [bag ...]   (default: every bags/*.bag of the source tree)
+#include "command_line.h"
 #include "fast_grasp/perception/cloud_preprocess.h"
 #include "fast_grasp/perception/normal_estimation.h"
 #include "fast_grasp/perception/table_segmentation.h"
@@ -44,9 +45,17 @@ struct StageTimes
 
 int main(int argc, char** argv)
 {
+  static const char* const kUsage =
+      "usage: bench_perception [BAG...]\n"
+      "  median ms per perception stage on each bag (default: every bundled bag)\n";
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   std::vector<std::string> bags;
   for (int i = 1; i < argc; ++i)
+  {
+    if (argv[i][0] == '-')
+      fast_grasp::exitWithUsage(std::string("unknown flag ") + argv[i], kUsage);
     bags.emplace_back(argv[i]);
+  }
   if (bags.empty())
   {
     const std::filesystem::path dir = std::filesystem::path(FAST_GRASP_SOURCE_DIR) / "bags";

@@ -10,6 +10,7 @@
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
 //                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--urdf PATH]
 //                       [--padding-m 0.005] [--cartesian-step-m 0] [--end-to-end PLANNER|none] [--check]
+#include "command_line.h"
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/grasp_execution.h"
 
@@ -141,6 +142,12 @@ int main(int argc, char** argv)
   double cartesian_step_m = 0.0;
   std::string end_to_end_planner = fast_grasp::MotionPlanningParams().planner;  // ArmMotionPlanner::plan() runs
   bool check_only = false;
+  static const char* const kUsage =
+      "usage: bench_planners [--runs N] [--planners A,B,...] [--scenes S,...] [--limits SECONDS,...] [--out DIR]\n"
+      "                      [--config-dir DIR] [--urdf FILE] [--padding-m M] [--cartesian-step-m M]\n"
+      "                      [--end-to-end PLANNER] [--check]\n"
+      "  every OMPL planner on the thesis appendix scenes through ompl::tools::Benchmark (docs/benchmarks/)\n";
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   for (int i = 1; i < argc; ++i)
   {
     const std::string flag = argv[i];
@@ -150,10 +157,7 @@ int main(int argc, char** argv)
       continue;
     }
     if (i + 1 >= argc)
-    {
-      std::fprintf(stderr, "flag %s needs a value\n", flag.c_str());
-      return 2;
-    }
+      fast_grasp::exitWithUsage("flag " + flag + " needs a value", kUsage);
     const std::string value = argv[++i];
     if (flag == "--runs") runs = std::max(1, std::atoi(value.c_str()));
     else if (flag == "--planners") planners = splitList(value);
@@ -171,10 +175,7 @@ int main(int argc, char** argv)
     else if (flag == "--cartesian-step-m") cartesian_step_m = std::atof(value.c_str());
     else if (flag == "--end-to-end") end_to_end_planner = value;
     else
-    {
-      std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
-      return 2;
-    }
+      fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
   }
   if (scenes.empty())
   {

@@ -7,6 +7,7 @@
 //
 //   arm_offline --bag bags/cup.bag [--algorithm principal_axis|cshape|boundary|concavity] [--frame N]
 //               [--gripper lacquey_fetch] [--max-grasps N] [--planner NAME] [--verbose]
+#include "command_line.h"
 #include "offline_arm_scene.h"
 
 #include "fast_grasp/arm/grasp_execution.h"
@@ -147,16 +148,19 @@ int run(const Options& options)
 int main(int argc, char** argv)
 {
   pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
+  static const char* const kUsage =
+      "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary|concavity] [--frame N] [--gripper G]\n"
+      "                   [--arm-config FILE] [--planner NAME] [--max-grasps N] [--explain-grasp N]\n"
+      "                   [--first-camera-only] [--verbose]\n"
+      "  bag frame -> grasps -> the ArmPlanner's scene -> planGraspMotion, without ROS\n";
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   fast_grasp::Options options;
   for (int i = 1; i < argc; ++i)
   {
     const std::string flag = argv[i];
     auto value = [&]() -> std::string {
       if (i + 1 >= argc)
-      {
-        std::cerr << "arm_offline: " << flag << " needs a value\n";
-        std::exit(2);
-      }
+        fast_grasp::exitWithUsage("arm_offline: " + flag + " needs a value", kUsage);
       return argv[++i];
     };
     if (flag == "--bag")
@@ -180,11 +184,7 @@ int main(int argc, char** argv)
     else if (flag == "--verbose")
       options.verbose = true;
     else
-    {
-      std::cerr << "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary|concavity] [--frame N] [--gripper G]\n"
-                   "                   [--arm-config FILE] [--planner NAME] [--max-grasps N] [--verbose]\n";
-      return 2;
-    }
+      fast_grasp::exitWithUsage("arm_offline: unknown flag " + flag, kUsage);
   }
   if (options.bag_path.empty())
   {

@@ -313,9 +313,9 @@ int run(const Options& options)
   return 0;
 }
 
-void usage()
+void usage(std::ostream& out = std::cerr)
 {
-  std::cerr << "usage: render_bag <scene.yaml> <out.bag> [--ycb-dir DIR] [--truth FILE] [--preview FILE.pgm]\n"
+  out << "usage: render_bag <scene.yaml> <out.bag> [--ycb-dir DIR] [--truth FILE] [--preview FILE.pgm]\n"
                "  --ycb-dir: folder of YCB STL files for 'ycb:NAME' meshes (default $FAST_GRASP_YCB_DIR)\n"
                "  --truth:   ground-truth sidecar (default: <out>.truth.yaml beside the bag)\n";
 }
@@ -337,8 +337,14 @@ int main(int argc, char** argv)
     }
     else if (arg == "-h" || arg == "--help")
     {
-      usage();
+      usage(std::cout);
       return 0;
+    }
+    else if (arg.rfind("-", 0) == 0)
+    {
+      std::cerr << "unknown flag " << arg << "\n";
+      usage();
+      return 2;
     }
     else
       positional.push_back(arg);

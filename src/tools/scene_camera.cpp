@@ -20,6 +20,7 @@
 // transformed with the pose that saw it, however slow the machine: no settle time to tune.
 // Subscribes next_view (geometry_msgs/PoseStamped, remap to /grasp_planner/next_view).
 // Publishes ~status (std_msgs/String, latched): one line per view.
+#include "command_line.h"
 #include "scene_description.h"
 
 #include "fast_grasp/render/xtion_renderer.h"
@@ -230,7 +231,15 @@ private:
 
 int main(int argc, char** argv)
 {
-  ros::init(argc, argv, "scene_camera");
+  static const char* const kUsage =
+      "usage: scene_camera [ROS remappings] _scene:=FILE.yaml [_start_paused:=true] [_start_delay_s:=S]\n"
+      "  renders a scene YAML as a live Xtion-style eye-in-hand camera and moves to ~next_view\n"
+      "  (private parameters: docs/parameters/render.md; used by demo.launch scene:=NAME)\n";
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
+  ros::init(argc, argv, "scene_camera");  // takes the ROS remappings out of argv
+  for (int i = 1; i < argc; ++i)
+    if (argv[i][0] == '-')
+      fast_grasp::exitWithUsage(std::string("unknown flag ") + argv[i], kUsage);
   ros::NodeHandle nh, private_nh("~");
   try
   {
