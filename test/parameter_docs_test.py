@@ -1,0 +1,56 @@
+#!/usr/bin/python3
+"""Every key of config/*.yaml and config/grippers/*.yaml (sections and leaves) is documented:
+it appears in backticks (`key`, or as `section.key` / `key:`) in a page of docs/parameters/."""
+import glob
+import os
+import re
+import sys
+import unittest
+
+import yaml
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+
+
+def keys_of(node, prefix=()):
+    if isinstance(node, dict):
+        for key, value in node.items():
+            yield prefix + (str(key),)
+            yield from keys_of(value, prefix + (str(key),))
+
+
+def documented_names():
+    text = "\n".join(open(p).read() for p in glob.glob(os.path.join(ROOT, "docs", "parameters", "*.md")))
+    text = re.sub(r"```.*?```", "", text, flags=re.S)  # code blocks would shift the backtick pairs
+    names = set()
+    for quoted in re.findall(r"`([^`]+)`", text):
+        # `a.b.c`, `key: value`, `~key`, `key=...` all name key(s)
+        for part in re.split(r"[\s.:=~/,()\[\]]+", quoted):
+            if part:
+                names.add(part)
+    return names
+
+
+class ParameterDocsTest(unittest.TestCase):
+    def test_every_config_key_is_documented(self):
+        names = documented_names()
+        self.assertTrue(names, "no docs/parameters/*.md page")
+        files = sorted(glob.glob(os.path.join(ROOT, "config", "*.yaml")) +
+                       glob.glob(os.path.join(ROOT, "config", "grippers", "*.yaml")))
+        self.assertTrue(files)
+        for path in files:
+            with open(path) as f:
+                data = yaml.safe_load(f)
+            missing = sorted({".".join(k) for k in keys_of(data) if k[-1] not in names})
+            with self.subTest(config=os.path.relpath(path, ROOT)):
+                self.assertEqual(missing, [], "%s: keys not documented in docs/parameters/: %s"
+                                 % (os.path.relpath(path, ROOT), ", ".join(missing)))
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    if any(a.startswith("--gtest_output=xml:") for a in args):
+        import rosunit
+        rosunit.unitrun("fast_grasp", "parameter_docs", ParameterDocsTest, sysargs=[sys.argv[0]] + args)
+    else:
+        unittest.main(argv=[sys.argv[0]] + args)
