@@ -8,7 +8,7 @@
 //   <planner> narrow_passage: solved P % median X ms      (3 s limit)
 //
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
-//                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--urdf PATH]
+//                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--robot ur5] [--urdf PATH]
 //                       [--padding-m 0.005] [--cartesian-step-m 0] [--end-to-end PLANNER|none] [--check]
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/grasp_execution.h"
@@ -134,8 +134,9 @@ int main(int argc, char** argv)
   std::vector<double> limits = { 3.0, 10.0 };
   std::string out_dir = "bench_planners_out";
   std::string config_dir = std::string(FAST_GRASP_SOURCE_DIR) + "/config";
-  std::string urdf = std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/ur5_gripper_xtion.urdf";
-  double padding_m = 0.005;
+  std::string robot = "ur5";  // config/robots/<robot>.yaml: URDF, limits, padding, contact links
+  std::string urdf;           // empty: the robot's
+  double padding_m = -1.0;    // < 0: the robot's link_padding_m
   // The OMPL runs validate motions like the thesis (longest_valid_segment_fraction alone);
   // --cartesian-step-m 0.01 benchmarks the planners with the sound validator inside instead.
   double cartesian_step_m = 0.0;
@@ -167,6 +168,7 @@ int main(int argc, char** argv)
     else if (flag == "--out") out_dir = value;
     else if (flag == "--config-dir") config_dir = value;
     else if (flag == "--urdf") urdf = value;
+    else if (flag == "--robot") robot = value;
     else if (flag == "--padding-m") padding_m = std::atof(value.c_str());
     else if (flag == "--cartesian-step-m") cartesian_step_m = std::atof(value.c_str());
     else if (flag == "--end-to-end") end_to_end_planner = value;
@@ -188,10 +190,16 @@ int main(int argc, char** argv)
   fs::create_directories(out_dir);
 
   fast_grasp::ArmKinematics kin;
+  fast_grasp::GraspExecutionParams robot_params;
   fast_grasp::MotionPlanningParams base_params;
   try
   {
-    kin = fast_grasp::ArmKinematics::fromUrdfFile(urdf);
+    robot_params = fast_grasp::loadGraspExecutionParams(config_dir + "/arm.yaml", "", robot);
+    if (!urdf.empty())
+      robot_params.urdf_path = urdf;
+    if (padding_m >= 0.0)
+      robot_params.link_padding_m = padding_m;
+    kin = fast_grasp::makeRobotCollision(robot_params).kinematics();
     base_params.planner_params = fast_grasp::loadPlannerParameters(config_dir + "/planners.yaml");
   }
   catch (const std::exception& e)
@@ -217,7 +225,9 @@ int main(int argc, char** argv)
       std::fprintf(stderr, "%s\n", e.what());
       return 1;
     }
-    fast_grasp::RobotCollision collision(kin, padding_m);
+    if (scene.seed_joints.size() != static_cast<Eigen::Index>(kin.dof()) && !robot_params.robot.home_pose_rad.empty())
+      scene.seed_joints = robot_params.robot.homePose(kin.jointNames());
+    fast_grasp::RobotCollision collision = fast_grasp::makeRobotCollision(robot_params);
     fast_grasp::addSceneBoxes(scene, collision);
     const ArmMotionPlanner planner(collision);
     fast_grasp::MotionPlanningParams params = base_params;
