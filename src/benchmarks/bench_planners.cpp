@@ -225,8 +225,19 @@ int main(int argc, char** argv)
       std::fprintf(stderr, "%s\n", e.what());
       return 1;
     }
-    if (scene.seed_joints.size() != static_cast<Eigen::Index>(kin.dof()) && !robot_params.robot.home_pose_rad.empty())
-      scene.seed_joints = robot_params.robot.homePose(kin.jointNames());
+    // The scenes' joint vectors are the UR5's: another arm starts at its home pose and seeds
+    // its IK there (the goal poses are the same Cartesian poses for every arm).
+    if (!robot_params.robot.home_pose_rad.empty())
+    {
+      const Eigen::VectorXd home = robot_params.robot.homePose(kin.jointNames());
+      if (scene.seed_joints.size() != home.size())
+        scene.seed_joints = home;
+      if (!scene.has_start_pose && scene.start_joints.size() != home.size())
+        scene.start_joints = home;
+      scene.goal_joints.erase(std::remove_if(scene.goal_joints.begin(), scene.goal_joints.end(),
+                                             [&](const Eigen::VectorXd& q) { return q.size() != home.size(); }),
+                              scene.goal_joints.end());
+    }
     fast_grasp::RobotCollision collision = fast_grasp::makeRobotCollision(robot_params);
     fast_grasp::addSceneBoxes(scene, collision);
     const ArmMotionPlanner planner(collision);
