@@ -104,32 +104,10 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
       const std::string config_dir = slash == std::string::npos ? "." : arm_yaml.substr(0, slash);
       useRobot(loadRobotConfig(robotConfigPath(config_dir, robot_name)), p);
     }
-    readScalar(root, "urdf_path", p.urdf_path);
-    readScalar(root, "base_link", p.base_link);
-    readScalar(root, "tip_link", p.tip_link);
-    const Eigen::VectorXd limit = readVector(root, "joint_limits_rad", arm_yaml);
-    if (limit.size() > 0)
-    {
-      p.joint_lower_rad = -limit;
-      p.joint_upper_rad = limit;
-    }
-    const Eigen::VectorXd lower = readVector(root, "joint_lower_rad", arm_yaml);
-    const Eigen::VectorXd upper = readVector(root, "joint_upper_rad", arm_yaml);
-    if (lower.size() > 0)
-      p.joint_lower_rad = lower;
-    if (upper.size() > 0)
-      p.joint_upper_rad = upper;
-    const Eigen::VectorXd velocity = readVector(root, "velocity_limit_rad_s", arm_yaml);
-    const Eigen::VectorXd acceleration = readVector(root, "acceleration_limit_rad_s2", arm_yaml);
-    if (velocity.size() > 0)
-      p.velocity_limit_rad_s = velocity;
-    if (acceleration.size() > 0)
-      p.acceleration_limit_rad_s2 = acceleration;
     readScalar(root, "approach_distance_m", p.approach_distance_m);
     readScalar(root, "lift_distance_m", p.lift_distance_m);
     readScalar(root, "cartesian_step_m", p.cartesian_step_m);
     readScalar(root, "max_joint_jump_rad", p.max_joint_jump_rad);
-    readScalar(root, "link_padding_m", p.link_padding_m);
     readScalar(root, "octomap_resolution_m", p.octomap_resolution_m);
     readScalar(root, "self_filter_padding_m", p.self_filter_padding_m);
     readScalar(root, "table_band_m", p.table_band_m);

@@ -16,7 +16,8 @@
 namespace fast_grasp
 {
 /// Everything config/arm.yaml and its config/robots/<robot>.yaml hold (README.md, Arm
-/// planning; docs/parameters/robots.md). The robot's keys are copied into the fields below.
+/// planning; docs/parameters/robots.md). The robot's keys (URDF, links, limits, padding) come
+/// only from the robot file and are copied into the fields below.
 struct GraspExecutionParams
 {
   RobotConfig robot;                     // empty name: arm.yaml named no robot
