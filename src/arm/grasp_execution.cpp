@@ -48,7 +48,40 @@ std::string describe(const Eigen::VectorXd& q)
 }
 }  // namespace
 
-GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const std::string& planners_yaml)
+namespace
+{
+void useRobot(const RobotConfig& robot, GraspExecutionParams& p)
+{
+  p.robot = robot;
+  p.urdf_path = robot.urdf_path;
+  p.base_link = robot.base_link;
+  p.tip_link = robot.tip_link;
+  p.joint_lower_rad = robot.joint_lower_rad;
+  p.joint_upper_rad = robot.joint_upper_rad;
+  p.velocity_limit_rad_s = robot.velocity_limit_rad_s;
+  p.acceleration_limit_rad_s2 = robot.acceleration_limit_rad_s2;
+  p.link_padding_m = robot.link_padding_m;
+}
+}  // namespace
+
+RobotCollision makeRobotCollision(const GraspExecutionParams& params)
+{
+  if (params.urdf_path.empty())
+    throw std::runtime_error("no URDF configured (arm.yaml names no robot)");
+  ArmKinematics kinematics = ArmKinematics::fromUrdfFile(params.urdf_path, params.base_link, params.tip_link);
+  const std::string limits_problem = applyLimits(params, kinematics);
+  if (!limits_problem.empty())
+    throw std::runtime_error(limits_problem);
+  const std::vector<std::string>& group = params.robot.joints;
+  if (!group.empty() && group != kinematics.jointNames())
+    throw std::runtime_error("robot '" + params.robot.name + "': the chain " + params.base_link + " -> " +
+                             params.tip_link + " has other joints than the configured planning group");
+  return params.robot.name.empty() ? RobotCollision(kinematics, params.link_padding_m) :
+                                     RobotCollision(kinematics, params.link_padding_m, params.robot.object_contact_links);
+}
+
+GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const std::string& planners_yaml,
+                                              const std::string& robot)
 {
   YAML::Node root;
   try
@@ -62,28 +95,19 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
   GraspExecutionParams p;
   try
   {
-    readScalar(root, "urdf_path", p.urdf_path);
-    readScalar(root, "base_link", p.base_link);
-    readScalar(root, "tip_link", p.tip_link);
-    const Eigen::VectorXd limit = readVector(root, "joint_limits_rad", arm_yaml);
-    if (limit.size() > 0)
+    std::string robot_name = robot;
+    if (robot_name.empty())
+      readScalar(root, "robot", robot_name);
+    if (!robot_name.empty())
     {
-      p.joint_lower_rad = -limit;
-      p.joint_upper_rad = limit;
+      const std::size_t slash = arm_yaml.find_last_of('/');
+      const std::string config_dir = slash == std::string::npos ? "." : arm_yaml.substr(0, slash);
+      useRobot(loadRobotConfig(robotConfigPath(config_dir, robot_name)), p);
     }
-    const Eigen::VectorXd lower = readVector(root, "joint_lower_rad", arm_yaml);
-    const Eigen::VectorXd upper = readVector(root, "joint_upper_rad", arm_yaml);
-    if (lower.size() > 0)
-      p.joint_lower_rad = lower;
-    if (upper.size() > 0)
-      p.joint_upper_rad = upper;
-    p.velocity_limit_rad_s = readVector(root, "velocity_limit_rad_s", arm_yaml);
-    p.acceleration_limit_rad_s2 = readVector(root, "acceleration_limit_rad_s2", arm_yaml);
     readScalar(root, "approach_distance_m", p.approach_distance_m);
     readScalar(root, "lift_distance_m", p.lift_distance_m);
     readScalar(root, "cartesian_step_m", p.cartesian_step_m);
     readScalar(root, "max_joint_jump_rad", p.max_joint_jump_rad);
-    readScalar(root, "link_padding_m", p.link_padding_m);
     readScalar(root, "octomap_resolution_m", p.octomap_resolution_m);
     readScalar(root, "self_filter_padding_m", p.self_filter_padding_m);
     readScalar(root, "table_band_m", p.table_band_m);

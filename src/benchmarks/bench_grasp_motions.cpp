@@ -43,10 +43,11 @@ namespace fs = std::filesystem;
 const std::string kSource = FAST_GRASP_SOURCE_DIR;
 
 const char* const kUsage =
-    "usage: bench_grasp_motions [--runs N] [--planners A,B,...] [--bags a,b,...] [--out FILE.csv]\n"
+    "usage: bench_grasp_motions [--runs N] [--planners A,B,...] [--bags a,b,...] [--robot NAME] [--out FILE.csv]\n"
     "  --runs N      planGraspMotion calls per bag and planner (default 10)\n"
     "  --planners    OMPL planners (default SBL,BiEST,BKPIECE,LBKPIECE,RRTConnect,BiTRRT,KPIECE,ProjEST,FMT)\n"
     "  --bags        bag names in bags/ without .bag (default: every bag)\n"
+    "  --robot       config/robots/NAME.yaml (default ur5)\n"
     "  --out         CSV of every call: bag,planner,run,solved,ms,trajectory_s\n";
 
 struct Options
@@ -55,6 +56,7 @@ struct Options
   std::vector<std::string> planners{ "SBL", "BiEST", "BKPIECE", "LBKPIECE", "RRTConnect",
                                      "BiTRRT", "KPIECE", "ProjEST", "FMT" };
   std::vector<std::string> bags;  // empty: every bag in bags/
+  std::string robot = "ur5";
   std::string out_csv;
 };
 
@@ -173,7 +175,7 @@ int run(const Options& options)
     csv << "bag,planner,run,solved,ms,trajectory_s\n";
   }
 
-  OfflineArm arm = loadOfflineArm(kSource + "/config/arm.yaml", kSource + "/config/planners.yaml");
+  OfflineArm arm = loadOfflineArm(kSource + "/config/arm.yaml", kSource + "/config/planners.yaml", "", options.robot);
   std::printf("planGraspMotion per bag (frame 0), %d runs per planner; config/arm.yaml (planner %s, "
               "total_time_budget_s %.1f, planning_time_s %.1f) + config/planners.yaml, only the planner changed\n",
               options.runs, arm.params.motion.planner.c_str(), arm.params.total_time_budget_s,
@@ -308,6 +310,8 @@ Options parseOptions(int argc, char** argv)
       options.planners = splitList(value());
     else if (flag == "--bags")
       options.bags = splitList(value());
+    else if (flag == "--robot")
+      options.robot = value();
     else if (flag == "--out")
       options.out_csv = value();
     else if (flag == "--help" || flag == "-h")

@@ -1,9 +1,11 @@
 // IK benchmark in the style of TRAC-IK's: FK of random joint vectors within the limits gives
 // reachable poses; each is solved from a fixed seed (the zero vector), 5 ms budget, 1e-5 tolerance.
-// Usage: bench_ik [--poses N] [--urdf PATH] [--base LINK] [--tip LINK] [--timeout-ms T] [--seed S]
+// Usage: bench_ik [--robot ur5] [--poses N] [--urdf PATH] [--base LINK] [--tip LINK] [--timeout-ms T] [--seed S]
+// The chain and limits come from config/robots/<robot>.yaml (--urdf/--base/--tip override them).
 // Last line: "ik solved: P % median: X ms".
 #include "command_line.h"
 #include "fast_grasp/arm/arm_kinematics.h"
+#include "fast_grasp/arm/grasp_execution.h"
 
 #include <algorithm>
 #include <chrono>
@@ -19,7 +21,8 @@
 namespace
 {
 const char* const kUsage =
-    "usage: bench_ik [--poses N] [--urdf FILE] [--base LINK] [--tip LINK] [--timeout-ms MS] [--seed S]\n"
+    "usage: bench_ik [--robot ur5|lwr4] [--poses N] [--urdf PATH] [--base LINK] [--tip LINK]\n"
+    "                [--timeout-ms T] [--seed S]\n"
     "  IK on N random reachable poses (FK of random joint vectors); last line 'ik solved: P % median: X ms'\n";
 }  // namespace
 
@@ -27,8 +30,7 @@ int main(int argc, char** argv)
 {
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   int poses = 1000;
-  std::string urdf = std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/ur5_gripper_xtion.urdf";
-  std::string base = "base_link", tip = "grasp_frame";
+  std::string robot = "ur5", urdf, base, tip;
   double timeout_ms = 5.0;
   unsigned seed = 1;
   for (int i = 1; i < argc; i += 2)
@@ -38,6 +40,7 @@ int main(int argc, char** argv)
       fast_grasp::exitWithUsage(flag + " needs a value", kUsage);
     const std::string value = argv[i + 1];
     if (flag == "--poses") poses = std::atoi(value.c_str());
+    else if (flag == "--robot") robot = value;
     else if (flag == "--urdf") urdf = value;
     else if (flag == "--base") base = value;
     else if (flag == "--tip") tip = value;
@@ -49,7 +52,15 @@ int main(int argc, char** argv)
   fast_grasp::ArmKinematics kin;
   try
   {
+    const fast_grasp::GraspExecutionParams config =
+        fast_grasp::loadGraspExecutionParams(std::string(FAST_GRASP_SOURCE_DIR) + "/config/arm.yaml", "", robot);
+    if (urdf.empty()) urdf = config.urdf_path;
+    if (base.empty()) base = config.base_link;
+    if (tip.empty()) tip = config.tip_link;
     kin = fast_grasp::ArmKinematics::fromUrdfFile(urdf, base, tip);
+    const std::string limits_problem = fast_grasp::applyLimits(config, kin);
+    if (!limits_problem.empty())
+      throw std::runtime_error(limits_problem);
   }
   catch (const std::exception& e)
   {
@@ -83,7 +94,7 @@ int main(int argc, char** argv)
   for (double t : times_ms) mean += t;
   mean /= std::max<std::size_t>(1, times_ms.size());
   const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
-  std::printf("chain %s -> %s, %zu joints, %d poses, timeout %.1f ms\n", base.c_str(), tip.c_str(), kin.dof(), poses,
+  std::printf("robot %s, chain %s -> %s, %zu joints, %d poses, timeout %.1f ms\n", robot.c_str(), base.c_str(), tip.c_str(), kin.dof(), poses,
               timeout_ms);
   std::printf("mean %.3f ms, p90 %.3f ms, max %.3f ms, worst error %.2e m / %.2e rad\n", mean,
               sorted.empty() ? 0.0 : sorted[sorted.size() * 9 / 10], sorted.empty() ? 0.0 : sorted.back(), worst_pos,

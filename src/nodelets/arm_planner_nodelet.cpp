@@ -39,10 +39,12 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     status_.init(nh_, private_nh_, getName());
     try
     {
-      std::string arm_config, planners_config, urdf_file, robot_description;
+      std::string arm_config, planners_config, urdf_file, robot_description, robot;
       private_nh_.param<std::string>("arm_config", arm_config, "");
       private_nh_.param<std::string>("planners_config", planners_config, "");
-      params_ = loadGraspExecutionParams(arm_config, planners_config);
+      // config/robots/<robot>.yaml; empty: the one arm.yaml names.
+      private_nh_.param<std::string>("robot", robot, "");
+      params_ = loadGraspExecutionParams(arm_config, planners_config, robot);
       private_nh_.param<std::string>("urdf_file", urdf_file, params_.urdf_path);
       private_nh_.param<std::string>("base_link", params_.base_link, params_.base_link);
       private_nh_.param<std::string>("tip_link", params_.tip_link, params_.tip_link);
@@ -58,14 +60,19 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       const std::string limits_problem = applyLimits(params_, kinematics);
       if (!limits_problem.empty())
         throw std::runtime_error(limits_problem);
-      collision_ = std::make_unique<RobotCollision>(kinematics, params_.link_padding_m);
+      collision_ = params_.robot.name.empty() ?
+                       std::make_unique<RobotCollision>(kinematics, params_.link_padding_m) :
+                       std::make_unique<RobotCollision>(kinematics, params_.link_padding_m,
+                                                        params_.robot.object_contact_links);
       // Shadow points as dense along the camera rays as the OctoMap's voxels, so the hidden
       // space becomes a closed wall of voxels rather than a dotted one.
       unseen_params_.step_m = params_.octomap_resolution_m;
-      // Home pose by joint name (config/home_pose.yaml, shared with joint_state_publisher):
-      // the start state until /joint_states arrives.
+      // Home pose by joint name (~home_pose, else the robot config's home_pose file, which
+      // joint_state_publisher also loads): the start state until /joint_states arrives.
       std::map<std::string, double> home;
       private_nh_.getParam("home_pose", home);
+      if (home.empty())
+        home = params_.robot.home_pose_rad;
       home_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kinematics.dof()));
       for (std::size_t j = 0; j < kinematics.dof(); ++j)
       {

@@ -37,6 +37,7 @@ struct Options
   std::string arm_config = kSource + "/config/arm.yaml";
   std::string planners_config = kSource + "/config/planners.yaml";
   std::string planner;  // empty: arm.yaml's
+  std::string robot = "ur5";  // config/robots/<robot>.yaml
   std::size_t max_grasps = 0;
   bool verbose = false;
   bool first_camera_only = false;  // unseen part from the first camera alone (the nodelet before sensor_frames)
@@ -69,7 +70,7 @@ int run(const Options& options)
   if (options.max_grasps > 0 && grasps.grasps.size() > options.max_grasps)
     grasps.grasps.resize(options.max_grasps);
 
-  OfflineArm arm = loadOfflineArm(options.arm_config, options.planners_config, options.planner);
+  OfflineArm arm = loadOfflineArm(options.arm_config, options.planners_config, options.planner, options.robot);
   const GraspExecutionParams& params = arm.params;
   const ArmKinematics& kinematics = arm.kinematics;
   const RobotCollision& collision = arm.collision;
@@ -150,7 +151,7 @@ int main(int argc, char** argv)
   pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
   static const char* const kUsage =
       "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary|concavity] [--frame N] [--gripper G]\n"
-      "                   [--arm-config FILE] [--planner NAME] [--max-grasps N] [--explain-grasp N]\n"
+      "                   [--arm-config FILE] [--robot ur5|lwr4] [--planner NAME] [--max-grasps N] [--explain-grasp N]\n"
       "                   [--first-camera-only] [--verbose]\n"
       "  bag frame -> grasps -> the ArmPlanner's scene -> planGraspMotion, without ROS\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
@@ -175,6 +176,8 @@ int main(int argc, char** argv)
       options.arm_config = value();
     else if (flag == "--planner")
       options.planner = value();
+    else if (flag == "--robot")
+      options.robot = value();
     else if (flag == "--max-grasps")
       options.max_grasps = static_cast<std::size_t>(std::stoul(value()));
     else if (flag == "--explain-grasp")

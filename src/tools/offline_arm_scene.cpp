@@ -33,15 +33,6 @@ std::vector<SensorCloud> readFrameClouds(const std::string& bag_path, int frame_
   return clouds;
 }
 
-std::map<std::string, double> loadHomePose()
-{
-  std::map<std::string, double> home;
-  const YAML::Node root = YAML::LoadFile(kSource + "/config/home_pose.yaml");
-  for (const auto& entry : root)
-    home[entry.first.as<std::string>()] = entry.second.as<double>();
-  return home;
-}
-
 }  // namespace
 
 BagFramePerception perceiveBagFrame(const std::string& bag_path, int frame_index)
@@ -73,21 +64,15 @@ BagFramePerception perceiveBagFrame(const std::string& bag_path, int frame_index
   return perception;
 }
 
-OfflineArm loadOfflineArm(const std::string& arm_yaml, const std::string& planners_yaml, const std::string& planner)
+OfflineArm loadOfflineArm(const std::string& arm_yaml, const std::string& planners_yaml, const std::string& planner,
+                          const std::string& robot)
 {
-  GraspExecutionParams params = loadGraspExecutionParams(arm_yaml, planners_yaml);
+  GraspExecutionParams params = loadGraspExecutionParams(arm_yaml, planners_yaml, robot);
   if (!planner.empty())
     params.motion.planner = planner;
-  ArmKinematics kinematics = ArmKinematics::fromUrdfFile(kSource + "/urdf/ur5_gripper_xtion.urdf", params.base_link,
-                                                         params.tip_link);
-  const std::string limits_problem = applyLimits(params, kinematics);
-  if (!limits_problem.empty())
-    throw std::runtime_error(limits_problem);
-  RobotCollision collision(kinematics, params.link_padding_m);
-  const std::map<std::string, double> home = loadHomePose();
-  Eigen::VectorXd start(static_cast<Eigen::Index>(kinematics.dof()));
-  for (std::size_t j = 0; j < kinematics.dof(); ++j)
-    start[static_cast<Eigen::Index>(j)] = home.at(kinematics.jointNames()[j]);
+  RobotCollision collision = makeRobotCollision(params);
+  ArmKinematics kinematics = collision.kinematics();
+  Eigen::VectorXd start = params.robot.homePose(kinematics.jointNames());
   return OfflineArm{ std::move(params), std::move(kinematics), std::move(collision), std::move(start) };
 }
 

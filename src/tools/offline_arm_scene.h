@@ -37,7 +37,7 @@ struct BagFramePerception
 /// failed (no such frame, preprocess, segmentation, view preparation).
 BagFramePerception perceiveBagFrame(const std::string& bag_path, int frame_index);
 
-/// The arm as the ArmPlanner nodelet configures it, at config/home_pose.yaml.
+/// The arm as the ArmPlanner nodelet configures it, at its robot config's home pose.
 struct OfflineArm
 {
   GraspExecutionParams params;
@@ -47,9 +47,10 @@ struct OfflineArm
 };
 
 /// Loads arm_yaml and planners_yaml (loadGraspExecutionParams); a non-empty `planner`
-/// replaces arm.yaml's OMPL planner. Throws std::runtime_error on a bad file or limit.
+/// replaces arm.yaml's OMPL planner, a non-empty `robot` its robot (config/robots/<robot>.yaml).
+/// Throws std::runtime_error on a bad file or limit.
 OfflineArm loadOfflineArm(const std::string& arm_yaml, const std::string& planners_yaml,
-                          const std::string& planner = "");
+                          const std::string& planner = "", const std::string& robot = "");
 
 /// Fills arm.collision with the nodelet's scene for this frame (buildGraspScene: scene cloud
 /// minus the arm at arm.start, the object as the target, the table as a box, the unseen part

@@ -6,6 +6,7 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/arm/robot_collision.h"
+#include "fast_grasp/arm/robot_config.h"
 #include "fast_grasp/arm/trajectory_timing.h"
 
 #include <optional>
@@ -14,9 +15,12 @@
 
 namespace fast_grasp
 {
-/// Everything config/arm.yaml holds (documented in README.md, Arm planning).
+/// Everything config/arm.yaml and its config/robots/<robot>.yaml hold (README.md, Arm
+/// planning; docs/parameters/robots.md). The robot's keys (URDF, links, limits, padding) come
+/// only from the robot file and are copied into the fields below.
 struct GraspExecutionParams
 {
+  RobotConfig robot;                     // empty name: arm.yaml named no robot
   std::string urdf_path;                 // empty: the caller supplies the kinematics
   std::string base_link = "base_link";
   std::string tip_link = "grasp_frame";
@@ -47,9 +51,16 @@ struct GraspExecutionParams
   TimingLimits timing;                   // velocity/acceleration filled from the fields above
 };
 
-/// Loads config/arm.yaml, and the planner table from planners_yaml (may be empty). Throws
-/// std::runtime_error naming the file and key on a missing file or an invalid value.
-GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const std::string& planners_yaml = "");
+/// Loads config/arm.yaml, the robot it names (`robot: ur5` -> robots/ur5.yaml beside it;
+/// a non-empty `robot` argument replaces the name) and the planner table from planners_yaml
+/// (may be empty). Throws std::runtime_error naming the file and key on a missing file or an
+/// invalid value.
+GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const std::string& planners_yaml = "",
+                                              const std::string& robot = "");
+
+/// The robot's collision model as configured: URDF chain base -> tip, limits applied, links
+/// padded, the object contact links. Throws std::runtime_error on a bad URDF or limit.
+RobotCollision makeRobotCollision(const GraspExecutionParams& params);
 
 /// Applies the configured joint/velocity limits to `kinematics`; returns an empty string or why not.
 std::string applyLimits(const GraspExecutionParams& params, ArmKinematics& kinematics);
