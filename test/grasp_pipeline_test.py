@@ -359,7 +359,11 @@ class GraspPipelineTest(unittest.TestCase):
         array = arrays.get(traj.header.stamp.to_nsec())
         self.assertIsNotNone(array, "trajectory stamp matches no GraspArray")
         grasp = array.grasps[int(match.group(1))]
-        arm = load_yaml(rospy.get_param("~arm_config"))
+        arm_config = rospy.get_param("~arm_config")
+        arm = load_yaml(arm_config)
+        # The arm's chain and limits live in config/robots/<robot>.yaml (arm.yaml names the robot).
+        robot = load_yaml(os.path.join(os.path.dirname(arm_config), "robots", arm.get("robot", "ur5") + ".yaml"))
+        arm = dict(robot, **arm)
         chain = urdf_fk.UrdfChain(rospy.get_param("~urdf_file"), "base_link", arm.get("tip_link", "grasp_frame"))
         order = [traj.joint_names.index(n) for n in chain.names]
         q = np.array([[p.positions[i] for i in order] for p in traj.points])
