@@ -40,12 +40,7 @@ class CommandLineTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
+    import pyunit_main
     args = sys.argv[1:]
-    i = args.index("--bin-dir")
-    BIN_DIR = args[i + 1]
-    del args[i:i + 2]
-    if any(a.startswith("--gtest_output=xml:") for a in args):
-        import rosunit
-        rosunit.unitrun("fast_grasp", "command_line", CommandLineTest, sysargs=[sys.argv[0]] + args)
-    else:
-        unittest.main(argv=[sys.argv[0]] + args)
+    BIN_DIR = pyunit_main.take_flag(args, "--bin-dir")
+    pyunit_main.run("command_line", CommandLineTest, args)

@@ -51,9 +51,5 @@ class ParameterDocsTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    if any(a.startswith("--gtest_output=xml:") for a in args):
-        import rosunit
-        rosunit.unitrun("fast_grasp", "parameter_docs", ParameterDocsTest, sysargs=[sys.argv[0]] + args)
-    else:
-        unittest.main(argv=[sys.argv[0]] + args)
+    import pyunit_main
+    pyunit_main.run("parameter_docs", ParameterDocsTest, sys.argv[1:])

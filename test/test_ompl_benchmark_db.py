@@ -125,13 +125,7 @@ class OmplBenchmarkDbTest(unittest.TestCase):
 
 
 if __name__ == "__main__":
+    import pyunit_main
     args = sys.argv[1:]
-    if "--bench-planners" in args:
-        i = args.index("--bench-planners")
-        BENCH_PLANNERS = args[i + 1]
-        del args[i:i + 2]
-    if any(a.startswith("--gtest_output=xml:") for a in args):
-        import rosunit
-        rosunit.unitrun("fast_grasp", "test_ompl_benchmark_db", OmplBenchmarkDbTest, sysargs=[sys.argv[0]] + args)
-    else:
-        unittest.main(argv=[sys.argv[0]] + args)
+    BENCH_PLANNERS = pyunit_main.take_flag(args, "--bench-planners") or BENCH_PLANNERS
+    pyunit_main.run("test_ompl_benchmark_db", OmplBenchmarkDbTest, args)
