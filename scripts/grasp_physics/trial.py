@@ -1,0 +1,241 @@
+"""One object on a table in MuJoCo: settle it into a seeded rest pose, then execute a grasp
+(pre-grasp 5 cm back along the approach, approach, close under the force limit, lift 15 cm,
+shake +-30 deg about two horizontal axes, hold) and say whether it held.
+
+Success: at the end the object is more than `lifted_m` above its rest height and touches both
+fingers. Unexpected contact: the hand touches the object before the fingers start closing, or
+the table at any time."""
+import math
+
+import mujoco
+import numpy as np
+
+from . import gripper as gripper_mjcf
+
+TABLE_CENTRE_XY_M = (0.55, 0.0)
+TABLE_HALF_SIZE_M = (0.6, 0.4, 0.02)
+
+
+class TrialParams:
+    def __init__(self, **overrides):
+        self.friction = 0.8
+        self.timestep_s = 0.001
+        self.pregrasp_back_m = 0.05
+        self.pregrasp_hold_s = 0.1
+        self.approach_s = 0.5
+        self.close_s = 0.8
+        self.lift_m = 0.15
+        self.lift_s = 1.0
+        self.shake_deg = 30.0
+        self.shake_s = 2.0
+        self.hold_s = 2.0
+        self.lifted_m = 0.10
+        self.settle_s = 3.0
+        for k, v in overrides.items():
+            if not hasattr(self, k):
+                raise KeyError("unknown trial parameter %s" % k)
+            setattr(self, k, v)
+
+
+def _f(*values):
+    return " ".join("%.6g" % v for v in values)
+
+
+def scene_xml(obj, gripper, params):
+    hand, equality, actuators, tendons, excludes = gripper_mjcf.hand_mjcf(gripper, params.friction)
+    assets, geoms = [], []
+    fr = _f(params.friction, 0.005, 0.0001)
+    for i, item in enumerate(obj.collision):
+        kind = item[0]
+        common = 'name="obj_%d" friction="%s" condim="4" density="1000" rgba="0.8 0.3 0.2 1"' % (i, fr)
+        if kind == "mesh":
+            assets.append('<mesh name="obj_mesh_%d" file="%s"/>' % (i, item[1]))
+            geoms.append('<geom type="mesh" mesh="obj_mesh_%d" %s/>' % (i, common))
+        elif kind == "box_yaw":
+            geoms.append('<geom type="box" size="%s" pos="%s" euler="0 0 %s" %s/>'
+                         % (_f(*item[1]), _f(*item[2]), _f(item[3]), common))
+        else:
+            geoms.append('<geom type="%s" size="%s" pos="%s" %s/>' % (kind, _f(*item[1]), _f(*item[2]), common))
+    return """<mujoco model="grasp_trial">
+  <compiler angle="radian" inertiafromgeom="true" boundmass="0.001" boundinertia="1e-7"/>
+  <option timestep="%s" gravity="0 0 -9.81" cone="elliptic" impratio="10" integrator="implicitfast"/>
+  <asset>%s</asset>
+  <worldbody>
+    <geom name="table" type="box" size="%s" pos="%s" friction="%s" condim="6" rgba="0.6 0.45 0.3 1"/>
+    <body name="object" pos="0.5 0 0.2">
+      <freejoint name="object_free"/>
+      %s
+    </body>
+    %s
+  </worldbody>
+  <contact>%s</contact>
+  <tendon>%s</tendon>
+  <equality>%s</equality>
+  <actuator>%s</actuator>
+</mujoco>""" % (_f(params.timestep_s), "\n".join(assets), _f(*TABLE_HALF_SIZE_M),
+                _f(TABLE_CENTRE_XY_M[0], TABLE_CENTRE_XY_M[1], -TABLE_HALF_SIZE_M[2]),
+                _f(params.friction, 0.005, 0.0005), "\n      ".join(geoms), hand, excludes, tendons,
+                equality, actuators)
+
+
+class Scene:
+    """The compiled model with the object's mass set to obj.mass_kg (inertia scaled alike)."""
+
+    def __init__(self, obj, gripper, params=None):
+        self.obj, self.gripper = obj, gripper
+        self.params = params or TrialParams()
+        self.model = mujoco.MjModel.from_xml_string(scene_xml(obj, gripper, self.params))
+        m = self.model
+        self.object_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "object")
+        scale = obj.mass_kg / m.body_mass[self.object_body]
+        m.body_mass[self.object_body] *= scale
+        m.body_inertia[self.object_body] *= scale
+        self.hand_body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "hand")
+        self.mocap = m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "hand_target")]
+        self.table_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "table")
+        obj_jnt = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "object_free")
+        hand_jnt = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "hand_free")
+        self.obj_qadr, self.obj_vadr = m.jnt_qposadr[obj_jnt], m.jnt_dofadr[obj_jnt]
+        self.hand_qadr, self.hand_vadr = m.jnt_qposadr[hand_jnt], m.jnt_dofadr[hand_jnt]
+        # what each geom belongs to: object, table, palm, finger_a, finger_b
+        self.geom_role = []
+        for g in range(m.ngeom):
+            name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+            role = "other"
+            for prefix in ("obj_", "table", "palm", "finger_a", "finger_b"):
+                if name.startswith(prefix):
+                    role = prefix.rstrip("_").replace("obj", "object")
+            self.geom_role.append(role)
+        self.data = mujoco.MjData(m)
+
+    # ---- contacts --------------------------------------------------------------------------
+    def contact_pairs(self):
+        pairs = set()
+        d = self.data
+        for i in range(d.ncon):
+            c = d.contact[i]
+            a, b = self.geom_role[c.geom1], self.geom_role[c.geom2]
+            pairs.add((a, b) if a < b else (b, a))
+        return pairs
+
+    @staticmethod
+    def hand_touches(pairs, other):
+        return any(other in p and ({"palm", "finger_a", "finger_b"} & set(p)) for p in pairs)
+
+    # ---- settle ----------------------------------------------------------------------------
+    def settle(self, quat_wxyz, xy=(0.5, 0.0)):
+        """Drops the object (orientation quat) from just above the table; returns (pos, quat)
+        of its rest pose."""
+        m, d = self.model, self.data
+        mujoco.mj_resetData(m, d)
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, np.asarray(quat_wxyz, float))
+        lowest = (self.obj.visual.vertices @ rot.reshape(3, 3).T)[:, 2].min()
+        d.qpos[self.obj_qadr:self.obj_qadr + 3] = [xy[0], xy[1], -lowest + 0.003]
+        d.qpos[self.obj_qadr + 3:self.obj_qadr + 7] = quat_wxyz
+        self._park_hand()
+        steps = int(self.params.settle_s / m.opt.timestep)
+        for i in range(steps):
+            mujoco.mj_step(m, d)
+            if i > 200 and np.abs(d.qvel[self.obj_vadr:self.obj_vadr + 6]).max() < 2e-3:
+                break
+        return d.qpos[self.obj_qadr:self.obj_qadr + 3].copy(), d.qpos[self.obj_qadr + 3:self.obj_qadr + 7].copy()
+
+    def _park_hand(self):
+        d = self.data
+        d.qpos[self.hand_qadr:self.hand_qadr + 7] = [0.5, 0.0, 2.0, 1, 0, 0, 0]
+        d.mocap_pos[self.mocap] = [0.5, 0.0, 2.0]
+        d.mocap_quat[self.mocap] = [1, 0, 0, 0]
+
+    # ---- grasp -----------------------------------------------------------------------------
+    def execute(self, rest_pos, rest_quat, grasp_rotation, grasp_position):
+        """Runs the grasp (3x3 rotation with columns approach, closing, axis; position of the
+        closing region's centre) from the rest pose. Returns a dict of the outcome."""
+        m, d, p = self.model, self.data, self.params
+        mujoco.mj_resetData(m, d)
+        d.qpos[self.obj_qadr:self.obj_qadr + 3] = rest_pos
+        d.qpos[self.obj_qadr + 3:self.obj_qadr + 7] = rest_quat
+        rot = np.asarray(grasp_rotation, float)
+        target = np.asarray(grasp_position, float)
+        approach = rot[:, 0] / np.linalg.norm(rot[:, 0])
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, rot.reshape(-1))
+        start = target - p.pregrasp_back_m * approach
+        d.qpos[self.hand_qadr:self.hand_qadr + 3] = start
+        d.qpos[self.hand_qadr + 3:self.hand_qadr + 7] = quat
+        d.mocap_pos[self.mocap] = start
+        d.mocap_quat[self.mocap] = quat
+        d.ctrl[:] = 0.0
+        mujoco.mj_forward(m, d)
+        closed = gripper_mjcf.closed_control(self.gripper)
+        outcome = {"unexpected_contact": False, "contact_phase": "", "failure_phase": "",
+                   "success": False, "table_contact": False}
+        rest_z = float(rest_pos[2])
+
+        def run(seconds, phase, update):
+            n = max(1, int(round(seconds / m.opt.timestep)))
+            for i in range(n):
+                update((i + 1) / n)
+                mujoco.mj_step(m, d)
+                pairs = self.contact_pairs()
+                if self.hand_touches(pairs, "table"):
+                    outcome["table_contact"] = True
+                    if not outcome["unexpected_contact"]:
+                        outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
+                if phase in ("pregrasp", "approach") and self.hand_touches(pairs, "object") \
+                        and not outcome["unexpected_contact"]:
+                    outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
+
+        def held():
+            pairs = self.contact_pairs()
+            return ("finger_a", "object") in pairs and ("finger_b", "object") in pairs
+
+        def lifted():
+            return d.qpos[self.obj_qadr + 2] - rest_z > p.lifted_m
+
+        run(p.pregrasp_hold_s, "pregrasp", lambda s: None)
+        run(p.approach_s, "approach", lambda s: d.mocap_pos.__setitem__(
+            self.mocap, start + _smooth(s) * p.pregrasp_back_m * approach))
+        run(p.close_s, "close", lambda s: d.ctrl.__setitem__(slice(None), np.asarray(closed) * min(1.0, 2.0 * s)))
+        if not held():
+            outcome["failure_phase"] = "close"
+        lift_start = d.mocap_pos[self.mocap].copy()
+        run(p.lift_s, "lift", lambda s: d.mocap_pos.__setitem__(
+            self.mocap, lift_start + np.array([0, 0, p.lift_m * _smooth(s)])))
+        if not outcome["failure_phase"] and not (held() and lifted()):
+            outcome["failure_phase"] = "lift"
+        base_quat = d.mocap_quat[self.mocap].copy()
+        amplitude = math.radians(p.shake_deg)
+
+        def shake(s):
+            axis = np.array([1.0, 0, 0]) if s < 0.5 else np.array([0, 1.0, 0])
+            angle = amplitude * math.sin(2.0 * math.pi * (2.0 * s % 1.0))
+            q = np.zeros(4)
+            mujoco.mju_axisAngle2Quat(q, axis, angle)
+            out = np.zeros(4)
+            mujoco.mju_mulQuat(out, q, base_quat)
+            d.mocap_quat[self.mocap] = out
+
+        run(p.shake_s, "shake", shake)
+        if not outcome["failure_phase"] and not (held() and lifted()):
+            outcome["failure_phase"] = "shake"
+        run(p.hold_s, "hold", lambda s: None)
+        if not outcome["failure_phase"] and not (held() and lifted()):
+            outcome["failure_phase"] = "hold"
+        outcome["success"] = not outcome["failure_phase"]
+        outcome["object_rise_m"] = float(d.qpos[self.obj_qadr + 2] - rest_z)
+        return outcome
+
+
+def _smooth(s):
+    """Minimum-jerk-like 0..1 ramp."""
+    s = min(max(s, 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def random_quat(rng):
+    """Uniform random rotation (w, x, y, z)."""
+    u1, u2, u3 = rng.random(3)
+    q = np.array([math.sqrt(1 - u1) * math.sin(2 * math.pi * u2), math.sqrt(1 - u1) * math.cos(2 * math.pi * u2),
+                  math.sqrt(u1) * math.sin(2 * math.pi * u3), math.sqrt(u1) * math.cos(2 * math.pi * u3)])
+    return np.array([q[3], q[0], q[1], q[2]])
