@@ -44,7 +44,7 @@ from evaluate_grasps import read_pcd_xyz  # noqa: E402
 PLANNERS = ["principal_axis", "cshape", "boundary", "concavity"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
-          "object_rise_m", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
+          "object_rise_m", "unstable", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
           "binormal_x", "binormal_y", "binormal_z", "width_m", "score"]
 
 
