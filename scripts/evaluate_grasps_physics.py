@@ -36,10 +36,24 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
-from grasp_physics import objects as objects_lib  # noqa: E402
-from grasp_physics import gripper as gripper_lib  # noqa: E402
-from grasp_physics import trial as trial_lib  # noqa: E402
 from evaluate_grasps import read_pcd_xyz  # noqa: E402
+
+VENV_PYTHON = os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")), "venv/bin/python")
+
+
+def import_physics():
+    """MuJoCo lives in the venv scripts/setup_venv.sh makes: started with another python, the
+    script re-runs itself there."""
+    global objects_lib, gripper_lib, trial_lib
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        if os.path.exists(VENV_PYTHON) and os.path.realpath(sys.executable) != os.path.realpath(VENV_PYTHON):
+            os.execv(VENV_PYTHON, [VENV_PYTHON] + sys.argv)
+        sys.exit("evaluate_grasps_physics: MuJoCo is not installed: run bash scripts/setup_venv.sh")
+    from grasp_physics import objects as objects_lib
+    from grasp_physics import gripper as gripper_lib
+    from grasp_physics import trial as trial_lib
 
 PLANNERS = ["principal_axis", "cshape", "boundary", "concavity"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "gripper", "friction", "status", "message",
@@ -168,6 +182,7 @@ def grasp_from_report(report):
 # ---- one scene (object, pose, view): plan with every planner, simulate each top grasp -----------
 def evaluate_scene(job):
     args, obj, pose_index, seed = job
+    import_physics()
     gripper = gripper_lib.load_gripper(gripper_path(args.gripper))
     params = trial_lib.TrialParams(friction=args.friction)
     scene = trial_lib.Scene(obj, gripper, params)
@@ -292,6 +307,7 @@ def plots(rows, planners, out_dir, title):
 
 def main(argv):
     args = parse_args(argv)
+    import_physics()
     gripper = gripper_lib.load_gripper(gripper_path(args.gripper))
     names = [n for n in args.objects.split(",") if n]
     kinds = tuple(k for k in args.kinds.split(",") if k)

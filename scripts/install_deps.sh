@@ -30,7 +30,7 @@ PACKAGES=(
   python3-visualization-msgs python3-diagnostic-msgs python3-tf2-msgs python3-std-srvs
   python3-pcl-msgs python3-genpy python3-gencpp python3-genmsg
   # renderer's mesh source (pip) and bag compression
-  python3-pip
+  python3-pip python3-venv
   # bench_planners' bar and box plots
   python3-matplotlib
 )
@@ -43,5 +43,7 @@ if [ "${#missing[@]}" -gt 0 ]; then
   $SUDO apt-get update
   $SUDO apt-get install -y --no-install-recommends "${missing[@]}"
 fi
+# The physics grasp evaluator's venv (MuJoCo, trimesh, CoACD from PyPI) in the workspace.
+bash "$(dirname "${BASH_SOURCE[0]}")/setup_venv.sh" > /dev/null
 # YCB meshes (PyPI) for the tests that render scenes from the principal-axis planner's next view.
 bash "$(dirname "${BASH_SOURCE[0]}")/fetch_ycb.sh" > /dev/null
