@@ -2,7 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <cstdint>
 #include <limits>
 #include <set>
@@ -106,6 +108,10 @@ private:
       return "a string";
     else if constexpr (std::is_integral_v<T>)
       return "an integer";
+    else if constexpr (std::is_same_v<T, std::vector<std::string>>)
+      return "a list of names";
+    else if constexpr (std::is_same_v<T, std::map<std::string, double>>)
+      return "a map of numbers";
     else
       return "a number";
   }
@@ -141,6 +147,8 @@ GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
   reader.readNonNegative("table_clearance_m", p.table_clearance_m);
   reader.readCount("min_points_between_fingers", p.min_points_between_fingers, 1);
   reader.readNonNegative("closing_margin_m", p.closing_margin_m);
+  reader.readNonNegative("max_table_tilt_rad", p.max_table_tilt_rad);
+  reader.readNonNegative("tilt_step_rad", p.tilt_step_rad);
   reader.rejectUnknownKeys();
   return p;
 }
@@ -294,6 +302,45 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+FusedParams fusedParamsFromYaml(const YAML::Node& section)
+{
+  FusedParams p;
+  SectionReader reader(section, "fused");
+  reader.read("planners", p.planners);
+  for (const std::string& name : p.planners)
+    if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
+      throw std::runtime_error("fused/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+  reader.readCount("top_down_directions", p.top_down_directions, 0);
+  reader.readCount("side_directions", p.side_directions, 0);
+  reader.readNonNegative("side_spread_rad", p.side_spread_rad);
+  reader.readCount("max_grasps", p.max_grasps, 1);
+  reader.readNonNegative("min_success_probability", p.min_success_probability);
+  p.gripper_fit = gripperFitFromYaml(reader, "fused");
+  SectionReader model(reader.child("model"), "fused/model");
+  model.read("bias", p.model.bias);
+  std::map<std::string, double> weights;
+  model.read("weights", weights);
+  model.read("fitted_on", p.model.fitted_on);
+  model.rejectUnknownKeys();
+  if (!weights.empty())
+  {
+    const auto& names = graspFeatureNames();
+    p.model.weights.assign(names.size(), 0.0);
+    for (const auto& [feature, weight] : weights)
+    {
+      const auto it = std::find(names.begin(), names.end(), feature);
+      if (it == names.end())
+        throw std::runtime_error("fused/model/weights: unknown feature '" + feature + "'");
+      p.model.weights[static_cast<std::size_t>(it - names.begin())] = weight;
+    }
+  }
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("fused: " + problem);
+  return p;
+}
+
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
 {
   YAML::Node root;
@@ -316,6 +363,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.cshape = cshapeParamsFromYaml(root["cshape"]);
       config.boundary = boundaryParamsFromYaml(root["boundary"]);
       config.concavity = concavityParamsFromYaml(root["concavity"]);
+      config.fused = fusedParamsFromYaml(root["fused"]);
     }
   }
   catch (const std::runtime_error& e)
@@ -327,7 +375,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
 
 const std::vector<std::string>& graspAlgorithmNames()
 {
-  static const std::vector<std::string> names{ "principal_axis", "cshape", "boundary", "concavity" };
+  static const std::vector<std::string> names{ "principal_axis", "cshape", "boundary", "concavity", "fused" };
   return names;
 }
 
@@ -341,6 +389,15 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     return std::make_unique<BoundaryGraspPlanner>(config.boundary);
   if (algorithm == "concavity")
     return std::make_unique<ConcavityGraspPlanner>(config.concavity);
+  if (algorithm == "fused")
+  {
+    std::vector<std::unique_ptr<GraspPlanner>> pooled;
+    for (const std::string& name : config.fused.planners)
+      if (name != "fused")  // fusedParamsFromYaml rejects it; never recurse
+        if (auto planner = makeGraspPlanner(name, config))
+          pooled.push_back(std::move(planner));
+    return std::make_unique<FusedGraspPlanner>(std::move(pooled), config.fused);
+  }
   return nullptr;
 }
 

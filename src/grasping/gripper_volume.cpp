@@ -44,6 +44,10 @@ std::string GripperFitParams::validate() const
     why << "gripper_fit/min_points_between_fingers must be >= 1; ";
   if (!(closing_margin_m >= 0.0))
     why << "gripper_fit/closing_margin_m must be >= 0; ";
+  if (!(max_table_tilt_rad >= 0.0 && max_table_tilt_rad <= M_PI))
+    why << "gripper_fit/max_table_tilt_rad must be in [0, pi]; ";
+  if (!(tilt_step_rad > 0.0))
+    why << "gripper_fit/tilt_step_rad must be > 0; ";
   return why.str();
 }
 
@@ -208,6 +212,37 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
   return result;
 }
 
+GripperFit GripperVolumeCheck::fitOrTilt(const Eigen::Isometry3d& pose, double width_m) const
+{
+  GripperFit first = fit(pose, width_m);
+  if (first.ok || !first.blocked_by_table || !has_table_ || params_.max_table_tilt_rad <= 0.0)
+    return first;
+  // Turn the approach about the closing line toward "down" (-table normal) projected onto the
+  // plane the turn keeps: the contacts and the closing direction do not move.
+  const Eigen::Vector3d closing = pose.linear().col(1);
+  const Eigen::Vector3d approach = pose.linear().col(0);
+  const Eigen::Vector3d down = -table_.head<3>().cast<double>();
+  Eigen::Vector3d goal = down - down.dot(closing) * closing;
+  if (goal.norm() < 1e-3)
+    return first;  // closing line vertical: no turn about it points the hand down
+  goal.normalize();
+  const double angle_to_goal = std::atan2(approach.cross(goal).dot(closing), approach.dot(goal));
+  const double reach = std::min(std::abs(angle_to_goal), params_.max_table_tilt_rad);
+  const double sign = angle_to_goal < 0.0 ? -1.0 : 1.0;
+  for (double tilt = params_.tilt_step_rad;; tilt += params_.tilt_step_rad)
+  {
+    tilt = std::min(tilt, reach);
+    Eigen::Isometry3d turned = pose;
+    turned.linear() = Eigen::AngleAxisd(sign * tilt, closing).toRotationMatrix() * pose.linear();
+    GripperFit fitted = fit(turned, width_m);
+    if (fitted.ok)
+      return fitted;
+    if (tilt >= reach)
+      break;
+  }
+  return first;
+}
+
 std::size_t GripperVolumeCheck::filter(std::vector<GraspCandidate>& grasps, std::string* why,
                                        std::size_t max_kept, std::size_t* blocked_by_table) const
 {
@@ -226,7 +261,7 @@ std::size_t GripperVolumeCheck::filter(std::vector<GraspCandidate>& grasps, std:
   {
     if (kept.size() >= max_kept)
       break;
-    const GripperFit fitted = fit(grasp.pose, grasp.width_m);
+    const GripperFit fitted = fitOrTilt(grasp.pose, grasp.width_m);
     if (fitted.ok)
     {
       grasp.pose = fitted.pose;

@@ -12,6 +12,7 @@
 #include "scene_description.h"
 
 #include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
@@ -49,7 +50,7 @@ const char* const kUsage =
     "usage: grasp_offline --bag FILE [--topic T] [--frame N]\n"
     "                   | --pcd FILE --viewpoint x,y,z [--table a,b,c,d] [--already-segmented]\n"
     "                   | --scene FILE.yaml [--ycb-dir DIR] [--follow-next-view N]\n"
-    "                     [--algorithm principal_axis|cshape|boundary|concavity] [--gripper NAME_OR_FILE]\n"
+    "                     [--algorithm principal_axis|cshape|boundary|concavity|fused] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
     "                     [--save-object FILE.pcd]\n"
     "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
@@ -64,7 +65,8 @@ const char* const kUsage =
     "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
     "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
     "                       (principal_axis, Ch3.2.3) and plan again (default 0)\n"
-    "  --algorithm A        principal_axis (default), cshape, boundary or concavity\n"
+    "  --algorithm A        principal_axis (default), cshape, boundary, concavity or fused (all four\n"
+    "                       pooled with top-down and side grasps, ranked by the physics-fitted model)\n"
     "  --gripper G          config/grippers/G.yaml or a YAML file (default lacquey_fetch)\n"
     "  --params FILE        planner parameters (default config/grasp_planners.yaml)\n"
     "  --format F           csv (default) or json\n"
@@ -216,7 +218,7 @@ Options parseOptions(int argc, char** argv)
     throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
   const std::vector<std::string>& algorithms = graspAlgorithmNames();
   if (std::find(algorithms.begin(), algorithms.end(), options.algorithm) == algorithms.end())
-    throw UsageError("--algorithm: '" + options.algorithm + "' is none of principal_axis, cshape, boundary, concavity");
+    throw UsageError("--algorithm: '" + options.algorithm + "' is none of principal_axis, cshape, boundary, concavity, fused");
   if (options.format != "csv" && options.format != "json")
     throw UsageError("--format: '" + options.format + "' is neither csv nor json");
   return options;
@@ -581,7 +583,17 @@ void writeJson(std::ostream& out, const Report& report)
         << ", \"score\": " << jsonNumber(g.score) << ", \"force_balance_rad\": " << jsonNumber(g.force_balance_rad)
         << ", \"xoz_offset_m\": " << jsonNumber(g.xoz_offset_m) << ", \"variance_m\": " << jsonNumber(g.variance_m)
         << ", \"torque_offset_m\": " << jsonNumber(g.torque_offset_m)
-        << ", \"gravity_offset_m\": " << jsonNumber(g.gravity_offset_m) << "}";
+        << ", \"gravity_offset_m\": " << jsonNumber(g.gravity_offset_m);
+    if (!g.features.empty())
+    {
+      // the fused planner's success-model inputs, for scripts/fit_fused_model.py
+      const auto& names = graspFeatureNames();
+      out << ", \"features\": {";
+      for (std::size_t f = 0; f < g.features.size() && f < names.size(); ++f)
+        out << (f ? ", " : "") << jsonString(names[f]) << ": " << jsonNumber(g.features[f]);
+      out << "}";
+    }
+    out << "}";
   }
   out << (report.grasps.empty() ? "]\n" : "\n  ]\n") << "}\n";
 }

@@ -53,6 +53,8 @@ struct GraspCandidate
   /// The two contact points (base frame), when the algorithm knows them.
   Eigen::Vector3d contact_a = Eigen::Vector3d::Constant(kUnset);
   Eigen::Vector3d contact_b = Eigen::Vector3d::Constant(kUnset);
+  /// The fused planner's success-model features (grasping/grasp_features.h order); else empty.
+  std::vector<double> features;
 
   Eigen::Vector3d position() const { return pose.translation(); }
   Eigen::Vector3d approach() const { return pose.linear().col(0); }

@@ -6,6 +6,7 @@
 #include "fast_grasp/grasping/boundary_grasp.h"
 #include "fast_grasp/grasping/concavity_grasp.h"
 #include "fast_grasp/grasping/cshape_grasp.h"
+#include "fast_grasp/grasping/fused_grasp.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 
 #include <yaml-cpp/node/node.h>
@@ -35,6 +36,11 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section);
 /// reason.
 ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
 
+/// Reads the `fused:` section: `planners` (a list of names), the generated candidates, its
+/// `gripper_fit:` map and `model: {bias, weights: {feature: weight}}` (the features of
+/// grasp_features.h; a missing feature weighs 0). Throws std::runtime_error like the others.
+FusedParams fusedParamsFromYaml(const YAML::Node& section);
+
 /// Every planner's parameters from one grasp_planners.yaml.
 struct GraspPlannerConfig
 {
@@ -42,6 +48,7 @@ struct GraspPlannerConfig
   CShapeParams cshape;
   BoundaryParams boundary;
   ConcavityParams concavity;
+  FusedParams fused;
 };
 
 /// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:` and `concavity:`
@@ -50,7 +57,7 @@ struct GraspPlannerConfig
 /// unparsable file and on any error of the two functions above.
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
 
-/// Every grasp algorithm by its name(): principal_axis, cshape, boundary, concavity.
+/// Every grasp algorithm by its name(): principal_axis, cshape, boundary, concavity, fused.
 const std::vector<std::string>& graspAlgorithmNames();
 
 /// The planner named `algorithm` with its section of `config`; nullptr for an unknown name.

@@ -68,6 +68,12 @@ struct GripperFitParams
   int min_points_between_fingers = 5;
   /// Y margin of the closing region per side when counting those points.
   double closing_margin_m = 0.005;
+  /// A grasp whose open hand the table blocks is turned about its closing line (the contacts
+  /// stay where the planner put them) toward an approach from above, in steps of
+  /// tilt_step_rad, by at most this much; 0 = never. Beyond the thesis: its planners keep their
+  /// approach, and on low objects the table then rejects most of their grasps.
+  double max_table_tilt_rad = 1.2;
+  double tilt_step_rad = 0.2;
 
   std::string validate() const;
 };
@@ -108,7 +114,12 @@ public:
   /// still has min_points_between_fingers seen points between the fingers closed to `width_m`.
   GripperFit fit(const Eigen::Isometry3d& pose, double width_m) const;
 
-  /// Applies fit() to the grasps in order (best first) until `max_kept` fit: kept grasps get
+  /// fit(), and where the table blocks the hand, fit() of the grasp turned about its closing
+  /// line toward an approach from above (max_table_tilt_rad): the first that fits, else the
+  /// untilted result.
+  GripperFit fitOrTilt(const Eigen::Isometry3d& pose, double width_m) const;
+
+  /// Applies fitOrTilt() to the grasps in order (best first) until `max_kept` fit: kept grasps get
   /// the fitted pose, the rest are removed. Returns how many were checked and dropped and, in
   /// `why`, the reason of the first dropped one; `blocked_by_table` counts the dropped ones the
   /// table stopped (a planner may then suggest a view from above).

@@ -1,0 +1,54 @@
+// The geometry a grasp's fate depends on, as numbers a success model can weigh: where the
+// fingers close against the object's height and centre of mass, how the contact surfaces face
+// the fingers, how much finger is on the object, how close the hand comes to the table.
+// Beyond the thesis (its planners score each by their own metric, which are not comparable):
+// the fused planner ranks every planner's candidates with one logistic model over these
+// features, fitted to physics outcomes (scripts/fit_fused_model.py). ROS-free.
+#pragma once
+
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/gripper_model.h"
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+/// What the features need to know about the object once per view.
+struct ObjectExtent
+{
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  float height_m = 0.0f;      // highest point above the table (or above the lowest point)
+  float max_extent_m = 0.0f;  // largest side of the axis-aligned bounding box
+  Eigen::Vector3f up = Eigen::Vector3f::UnitZ();  // away from the table (against gravity)
+  float table_offset = 0.0f;  // height above table = up . p + table_offset
+};
+
+ObjectExtent objectExtent(const ObjectView& view);
+
+/// Feature names, in the order graspFeatures() returns them and the model's weights use.
+/// The first ones are one-hot sources: from_<planner> for the candidate's planner.
+const std::vector<std::string>& graspFeatureNames();
+
+/// Candidate sources the one-hot features know ("principal_axis", ..., "top_down", "side").
+const std::vector<std::string>& graspFeatureSources();
+
+/// The features of `grasp` (pose already fitted by the gripper-volume check) on `view`.
+/// `source` is the candidate's planner (one of graspFeatureSources(); another sets no one-hot).
+std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string& source, const ObjectView& view,
+                                  const ObjectExtent& extent, const GripperModel& gripper);
+
+/// Logistic success model: p = 1 / (1 + exp(-(bias + weights . features))).
+struct GraspSuccessModel
+{
+  double bias = 0.0;
+  std::vector<double> weights;  // graspFeatureNames() order; empty = every weight 0
+  std::string fitted_on;        // provenance line written by scripts/fit_fused_model.py
+
+  double probability(const std::vector<double>& features) const;
+  std::string validate() const;
+};
+
+}  // namespace fast_grasp

@@ -1,0 +1,219 @@
+#include "fast_grasp/grasping/fused_grasp.h"
+
+#include "fast_grasp/grasping/planner_input.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace fast_grasp
+{
+namespace
+{
+/// Extent of the finite points along `direction`: (min, max).
+std::pair<float, float> extentAlong(const CloudNormal& cloud, const Eigen::Vector3f& direction)
+{
+  float lo = std::numeric_limits<float>::max(), hi = -lo;
+  for (const auto& p : cloud.points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    const float s = direction.dot(q);
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+  }
+  return { lo, hi };
+}
+
+/// Two unit vectors spanning the plane perpendicular to `up`.
+std::pair<Eigen::Vector3f, Eigen::Vector3f> planeBasis(const Eigen::Vector3f& up)
+{
+  const Eigen::Vector3f seed = std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f e1 = (seed - seed.dot(up) * up).normalized();
+  return { e1, up.cross(e1) };
+}
+
+struct Generated
+{
+  GraspCandidate grasp;
+  std::string source;
+};
+
+/// Top-down grasps through the centroid: one per closing direction, the palm just above the top.
+void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
+                       const FusedParams& p, std::vector<Generated>& out)
+{
+  const auto [e1, e2] = planeBasis(extent.up);
+  const float finger_depth = static_cast<float>(gripper.finger_depth_m);
+  // Height of the closing line above the table: palm face palm_clearance_m above the top.
+  const float centre_height = extent.height_m + static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f -
+                              0.5f * finger_depth;
+  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
+  const Eigen::Vector3f centre = extent.centroid + (centre_height - centroid_height) * extent.up;
+  for (std::size_t i = 0; i < p.top_down_directions; ++i)
+  {
+    const float angle = static_cast<float>(M_PI) * static_cast<float>(i) / static_cast<float>(p.top_down_directions);
+    const Eigen::Vector3f closing = std::cos(angle) * e1 + std::sin(angle) * e2;
+    const auto [lo, hi] = extentAlong(*view.cloud, closing);
+    const double width = static_cast<double>(hi - lo);
+    if (width > gripper.max_opening_m - 0.005)
+      continue;
+    Generated g;
+    g.source = "top_down";
+    g.grasp.pose = makeGraspPose(centre.cast<double>(), (-extent.up).cast<double>(), closing.cast<double>());
+    // the closing line through the middle of the object along the closing direction
+    g.grasp.pose.translation() += static_cast<double>(0.5f * (lo + hi) - closing.dot(centre)) * closing.cast<double>();
+    g.grasp.width_m = std::max(width, gripper.min_opening_m);
+    out.push_back(g);
+  }
+}
+
+/// Side grasps at the centroid's height, approaching horizontally from the camera's side.
+void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
+                    const FusedParams& p, std::vector<Generated>& out)
+{
+  if (p.side_directions == 0 || view.sensor_origins.empty())
+    return;
+  Eigen::Vector3f look = extent.centroid - view.sensor_origins.front();
+  look -= look.dot(extent.up) * extent.up;
+  if (look.norm() < 1e-3f)
+    return;  // camera straight above: no side to come from
+  look.normalize();
+  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
+  const float lowest_centre = 0.5f * static_cast<float>(gripper.palmWidth()) +
+                              static_cast<float>(p.gripper_fit.table_clearance_m) + 0.002f;
+  const float centre_height = std::max(centroid_height, lowest_centre);
+  for (std::size_t i = 0; i < p.side_directions; ++i)
+  {
+    const float t = p.side_directions == 1 ? 0.0f
+                                           : -1.0f + 2.0f * static_cast<float>(i) / static_cast<float>(p.side_directions - 1);
+    const Eigen::Vector3f approach = Eigen::AngleAxisf(t * static_cast<float>(p.side_spread_rad), extent.up) * look;
+    const Eigen::Vector3f closing = extent.up.cross(approach).normalized();
+    const auto [lo, hi] = extentAlong(*view.cloud, closing);
+    const double width = static_cast<double>(hi - lo);
+    if (width > gripper.max_opening_m - 0.005)
+      continue;
+    const auto [front, back] = extentAlong(*view.cloud, approach);
+    // The far side is unseen: take the object as deep as it is wide, within what was seen.
+    const float depth_centre = std::min(front + 0.5f * static_cast<float>(width), back);
+    Eigen::Vector3f centre = extent.centroid;
+    centre += (centre_height - centroid_height) * extent.up;
+    centre += (depth_centre - approach.dot(centre)) * approach;
+    centre += (0.5f * (lo + hi) - closing.dot(centre)) * closing;
+    Generated g;
+    g.source = "side";
+    g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
+    g.grasp.width_m = std::max(width, gripper.min_opening_m);
+    out.push_back(g);
+  }
+}
+}  // namespace
+
+std::string FusedParams::validate() const
+{
+  std::ostringstream why;
+  if (max_grasps < 1)
+    why << "max_grasps must be >= 1; ";
+  if (!(side_spread_rad >= 0.0 && side_spread_rad <= M_PI))
+    why << "side_spread_rad must be in [0, pi]; ";
+  if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
+    why << "min_success_probability must be in [0, 1]; ";
+  why << gripper_fit.validate() << model.validate();
+  return why.str();
+}
+
+FusedGraspPlanner::FusedGraspPlanner(std::vector<std::unique_ptr<GraspPlanner>> planners, FusedParams params)
+  : planners_(std::move(planners)), params_(std::move(params))
+{
+}
+
+GraspResult FusedGraspPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
+{
+  const Stopwatch watch;
+  if (auto bad = checkPlannerInput(name(), params_.validate(), gripper, view, 10))
+  {
+    bad->compute_time_s = watch.elapsedSeconds();
+    return *bad;
+  }
+  const ObjectExtent extent = objectExtent(view);
+  std::vector<Generated> pool;
+  std::ostringstream summary;
+  GraspResult result;
+  for (const auto& planner : planners_)
+  {
+    GraspResult part = planner->plan(view, gripper);
+    result.candidates_evaluated += part.candidates_evaluated;
+    summary << planner->name() << ": " << part.grasps.size() << "; ";
+    if (!part.ok() && !part.message.empty() && result.message.size() < 600)
+      result.message += std::string(result.message.empty() ? "" : " | ") + part.message;
+    if (!result.next_view && part.next_view)
+      result.next_view = part.next_view;
+    for (auto& grasp : part.grasps)
+      pool.push_back({ std::move(grasp), planner->name() });
+  }
+
+  // Our own candidates, through the same hand check the planners' grasps passed.
+  std::vector<Generated> generated;
+  topDownCandidates(view, extent, gripper, params_, generated);
+  sideCandidates(view, extent, gripper, params_, generated);
+  if (!generated.empty() && params_.gripper_fit.enabled)
+  {
+    GripperVolumeCheck check(gripper, params_.gripper_fit);
+    check.addSeen(*view.cloud);
+    if (view.has_table_plane)
+      check.setTable(view.table_plane);
+    std::size_t kept = 0;
+    for (auto& g : generated)
+    {
+      const GripperFit fitted = check.fitOrTilt(g.grasp.pose, g.grasp.width_m);
+      if (!fitted.ok)
+        continue;
+      g.grasp.pose = fitted.pose;
+      pool.push_back(std::move(g));
+      ++kept;
+    }
+    summary << "top_down + side: " << kept << " of " << generated.size() << " fit; ";
+  }
+  result.candidates_evaluated += generated.size();
+
+  for (auto& g : pool)
+  {
+    g.grasp.features = graspFeatures(g.grasp, g.source, view, extent, gripper);
+    g.grasp.score = params_.model.probability(g.grasp.features);
+    g.grasp.algorithm = "fused/" + g.source;
+  }
+  std::stable_sort(pool.begin(), pool.end(),
+                   [](const Generated& a, const Generated& b) { return a.grasp.score > b.grasp.score; });
+  const double best = pool.empty() ? 0.0 : pool.front().grasp.score;
+  for (auto& g : pool)
+  {
+    if (result.grasps.size() >= params_.max_grasps || g.grasp.score < params_.min_success_probability)
+      break;
+    result.grasps.push_back(std::move(g.grasp));
+  }
+  result.compute_time_s = watch.elapsedSeconds();
+  if (result.grasps.empty())
+  {
+    std::ostringstream why;
+    why << "fused: " << pool.size() << " pooled candidates (" << summary.str() << ")";
+    if (!pool.empty())
+      why << ", best success probability " << best << " < min_success_probability " << params_.min_success_probability;
+    if (!result.message.empty())
+      why << "; " << result.message;
+    const auto next_view = result.next_view;
+    result = GraspResult::fail(GraspFailure::NoStableGrasp, why.str());
+    result.next_view = next_view;
+    result.compute_time_s = watch.elapsedSeconds();
+    return result;
+  }
+  std::ostringstream message;
+  message << "fused: " << result.grasps.size() << " grasps from " << pool.size() << " pooled candidates (" << summary.str()
+          << "), best success probability " << best << " (" << result.grasps.front().algorithm << ")";
+  result.message = message.str();
+  result.next_view.reset();
+  return result;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,189 @@
+#include "fast_grasp/grasping/grasp_features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace fast_grasp
+{
+namespace
+{
+float clampf(float v, float lo, float hi)
+{
+  return std::min(std::max(v, lo), hi);
+}
+}  // namespace
+
+ObjectExtent objectExtent(const ObjectView& view)
+{
+  ObjectExtent e;
+  e.up = -view.gravity.normalized();
+  if (view.has_table_plane && view.table_plane.head<3>().norm() > 1e-6f)
+  {
+    const float n = view.table_plane.head<3>().norm();
+    e.up = view.table_plane.head<3>() / n;
+    e.table_offset = view.table_plane(3) / n;
+  }
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = -lo;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t count = 0;
+  float top = -std::numeric_limits<float>::max(), bottom = std::numeric_limits<float>::max();
+  for (const auto& p : view.cloud->points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+    sum += q.cast<double>();
+    ++count;
+    const float h = e.up.dot(q) + e.table_offset;
+    top = std::max(top, h);
+    bottom = std::min(bottom, h);
+  }
+  if (count == 0)
+    return e;
+  e.centroid = (sum / static_cast<double>(count)).cast<float>();
+  // Without a table the lowest seen point stands in for it.
+  if (!view.has_table_plane)
+  {
+    e.table_offset -= bottom;
+    top -= bottom;
+  }
+  e.height_m = std::max(top, 1e-3f);
+  e.max_extent_m = std::max((hi - lo).maxCoeff(), 1e-3f);
+  return e;
+}
+
+const std::vector<std::string>& graspFeatureSources()
+{
+  static const std::vector<std::string> sources{ "principal_axis", "cshape", "boundary", "concavity", "top_down",
+                                                 "side" };
+  return sources;
+}
+
+const std::vector<std::string>& graspFeatureNames()
+{
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const auto& s : graspFeatureSources())
+      n.push_back("from_" + s);
+    for (const char* f : { "contact_height_frac", "contact_height_frac_sq", "centroid_arm_frac", "approach_down",
+                           "width_frac", "grip_depth_frac", "points_between_log", "table_clearance_frac",
+                           "object_height_frac", "contact_facing", "contact_facing_up" })
+      n.emplace_back(f);
+    return n;
+  }();
+  return names;
+}
+
+std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string& source, const ObjectView& view,
+                                  const ObjectExtent& extent, const GripperModel& gripper)
+{
+  const auto& sources = graspFeatureSources();
+  std::vector<double> f(graspFeatureNames().size(), 0.0);
+  for (std::size_t i = 0; i < sources.size(); ++i)
+    f[i] = source == sources[i] ? 1.0 : 0.0;
+  std::size_t k = sources.size();
+
+  const Eigen::Matrix3f rotation = grasp.pose.linear().cast<float>();
+  const Eigen::Vector3f origin = grasp.pose.translation().cast<float>();
+  const Eigen::Vector3f approach = rotation.col(0), closing = rotation.col(1);
+  const float opening = static_cast<float>(gripper.max_opening_m);
+  const float finger_depth = static_cast<float>(gripper.finger_depth_m);
+  const float finger_width = static_cast<float>(gripper.finger_width_m);
+
+  // Points between the open fingers (the closing region at full opening, finger-wide along Z):
+  // what the fingers will squeeze, and the ones nearest each finger are the contacts.
+  float y_min = std::numeric_limits<float>::max(), y_max = -y_min;
+  float x_min = std::numeric_limits<float>::max(), x_max = -x_min;
+  std::size_t between = 0;
+  std::vector<std::pair<float, Eigen::Vector3f>> region;  // (y, normal)
+  for (const auto& p : view.cloud->points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    const Eigen::Vector3f local = rotation.transpose() * (q - origin);
+    if (std::abs(local.x()) > 0.5f * finger_depth || std::abs(local.y()) > 0.5f * opening ||
+        std::abs(local.z()) > 0.5f * finger_width)
+      continue;
+    ++between;
+    y_min = std::min(y_min, local.y());
+    y_max = std::max(y_max, local.y());
+    x_min = std::min(x_min, local.x());
+    x_max = std::max(x_max, local.x());
+    Eigen::Vector3f normal = p.getNormalVector3fMap();
+    if (!normal.allFinite() || normal.norm() < 0.5f)
+      normal.setZero();
+    region.emplace_back(local.y(), normal);
+  }
+  const float height = extent.up.dot(origin) + extent.table_offset;
+  const float height_frac = clampf(height / extent.height_m, -0.5f, 1.5f);
+  f[k++] = height_frac;
+  f[k++] = height_frac * height_frac;
+  // The lever the object's weight has about the closing line (it pivots out about it).
+  const Eigen::Vector3f to_centroid = extent.centroid - origin;
+  const float arm = (to_centroid - to_centroid.dot(closing) * closing).norm();
+  f[k++] = clampf(arm / extent.max_extent_m, 0.0f, 2.0f);
+  f[k++] = -approach.dot(extent.up);  // 1: from above, 0: from the side
+  f[k++] = between > 0 ? clampf((y_max - y_min) / opening, 0.0f, 1.0f) : 0.0;
+  f[k++] = between > 0 ? clampf((x_max - x_min) / finger_depth, 0.0f, 1.0f) : 0.0;
+  f[k++] = std::log1p(static_cast<double>(between)) / std::log(1000.0);
+  // Lowest corner of the open hand above the table, over the finger depth.
+  float lowest = std::numeric_limits<float>::max();
+  const float half_y = 0.5f * opening + static_cast<float>(gripper.finger_thickness_m);
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const Eigen::Vector3f q((corner & 1) ? 0.5f * finger_depth : -0.5f * finger_depth - static_cast<float>(gripper.palm_thickness_m),
+                            (corner & 2) ? half_y : -half_y, (corner & 4) ? 0.5f * finger_width : -0.5f * finger_width);
+    lowest = std::min(lowest, extent.up.dot(origin + rotation * q) + extent.table_offset);
+  }
+  f[k++] = clampf(lowest / finger_depth, -1.0f, 2.0f);
+  f[k++] = clampf(extent.height_m / opening, 0.0f, 4.0f);
+  // Contacts: points within 1 cm of each side's outermost point. facing = mean |n . closing|
+  // (1: flat faces square to the fingers), facing_up = mean n . up (> 0: the fingers press on
+  // surfaces that face up, above a round object's equator, and it slips out when lifted).
+  double facing = 0.0, facing_up = 0.0;
+  std::size_t contacts = 0;
+  for (const auto& [y, normal] : region)
+  {
+    if (y > y_max - 0.01f || y < y_min + 0.01f)
+    {
+      facing += std::abs(normal.dot(closing));
+      facing_up += normal.dot(extent.up);
+      ++contacts;
+    }
+  }
+  f[k++] = contacts ? facing / static_cast<double>(contacts) : 0.0;
+  f[k++] = contacts ? facing_up / static_cast<double>(contacts) : 0.0;
+  return f;
+}
+
+double GraspSuccessModel::probability(const std::vector<double>& features) const
+{
+  double z = bias;
+  for (std::size_t i = 0; i < weights.size() && i < features.size(); ++i)
+    z += weights[i] * features[i];
+  return 1.0 / (1.0 + std::exp(-z));
+}
+
+std::string GraspSuccessModel::validate() const
+{
+  std::ostringstream why;
+  if (!weights.empty() && weights.size() != graspFeatureNames().size())
+    why << "model has " << weights.size() << " weights for " << graspFeatureNames().size() << " features; ";
+  if (!std::isfinite(bias))
+    why << "model bias is not finite; ";
+  for (const double w : weights)
+    if (!std::isfinite(w))
+    {
+      why << "a model weight is not finite; ";
+      break;
+    }
+  return why.str();
+}
+
+}  // namespace fast_grasp
