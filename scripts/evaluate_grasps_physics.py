@@ -55,8 +55,8 @@ def import_physics():
     from grasp_physics import gripper as gripper_lib
     from grasp_physics import trial as trial_lib
 
-PLANNERS = ["principal_axis", "cshape", "boundary", "concavity"]
-FIELDS = ["split", "object", "class", "pose", "view", "planner", "gripper", "friction", "status", "message",
+PLANNERS = ["principal_axis", "cshape", "boundary", "concavity", "fused"]
+FIELDS = ["split", "object", "class", "pose", "view", "planner", "rank", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
           "object_rise_m", "unstable", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
           "binormal_x", "binormal_y", "binormal_z", "width_m", "score"]
@@ -77,6 +77,9 @@ def parse_args(argv):
     p.add_argument("--friction", type=float, default=0.8)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--params", default="", help="planner parameters YAML for grasp_offline")
+    p.add_argument("--pool", type=int, default=1,
+                   help="simulate each planner's top N grasps (rank 1 is the one the report counts); "
+                        "with fused and a large N, the training data of scripts/fit_fused_model.py")
     p.add_argument("--follow-next-view", type=int, default=0, help="passed to grasp_offline")
     p.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)))
     p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/physics"))
@@ -139,7 +142,7 @@ def write_render_scene(folder, obj, rest_pos, rest_quat, eye, target, seed):
 # ---- planning ----------------------------------------------------------------------------------
 def plan(grasp_offline, scene_yaml, algorithm, gripper, args, save_object=None):
     cmd = [grasp_offline, "--scene", scene_yaml, "--algorithm", algorithm, "--gripper", gripper,
-           "--format", "json", "--max-grasps", "1"]
+           "--format", "json", "--max-grasps", str(max(1, args.pool))]
     if args.ycb_dir:
         cmd += ["--ycb-dir", args.ycb_dir]
     if args.params:
@@ -171,12 +174,15 @@ def baseline_grasp(object_pcd, gripper):
     return {"position": centroid.tolist(), "rotation": rotation, "width_m": gripper["max_opening_m"], "score": 0.0}
 
 
-def grasp_from_report(report):
-    if report.get("status") != "ok" or not report.get("grasps"):
-        return None
-    g = report["grasps"][0]
-    rotation = np.stack([np.asarray(g["approach"]), np.asarray(g["binormal"]), np.asarray(g["axis"])], axis=1)
-    return {"position": g["position"], "rotation": rotation, "width_m": g["width_m"], "score": g["score"]}
+def grasps_from_report(report):
+    if report.get("status") != "ok":
+        return []
+    out = []
+    for g in report.get("grasps", []):
+        rotation = np.stack([np.asarray(g["approach"]), np.asarray(g["binormal"]), np.asarray(g["axis"])], axis=1)
+        out.append({"position": g["position"], "rotation": rotation, "width_m": g["width_m"], "score": g["score"],
+                    "source": g.get("algorithm", ""), "features": g.get("features", {})})
+    return out
 
 
 # ---- one scene (object, pose, view): plan with every planner, simulate each top grasp -----------
@@ -217,30 +223,34 @@ def evaluate_scene(job):
             object_pcd = os.path.join(folder, "object.pcd")
             saved = False
             for planner in planners:
-                row = dict(base, planner=planner)
+                row = dict(base, planner=planner, rank=1)
                 if planner == "baseline":
                     if not saved:
                         plan(grasp_offline, scene_yaml, "cshape", gripper_path(args.gripper), args, object_pcd)
                         saved = True
                     t0 = time.time()
                     grasp = baseline_grasp(object_pcd, gripper) if os.path.exists(object_pcd) else None
+                    grasps = [grasp] if grasp else []
                     row.update(status="ok" if grasp else "NoObject", message="", planning_ms=1000 * (time.time() - t0))
                 else:
                     report = plan(grasp_offline, scene_yaml, planner, gripper_path(args.gripper), args,
                                   None if saved else object_pcd)
                     saved = saved or os.path.exists(object_pcd)
-                    grasp = grasp_from_report(report)
+                    grasps = grasps_from_report(report)
                     row.update(status=report.get("status", "?"), message=report.get("message", "")[:200],
                                planning_ms=1000 * (report.get("compute_time_s") or 0.0))
-                if grasp is not None:
-                    outcome = scene.execute(rest_pos, rest_quat, grasp["rotation"], grasp["position"])
-                    row.update(outcome)
+                if not grasps:
+                    rows.append(row)
+                for rank, grasp in enumerate(grasps[:max(1, args.pool)], start=1):
+                    trial_row = dict(row, rank=rank)
+                    trial_row.update(scene.execute(rest_pos, rest_quat, grasp["rotation"], grasp["position"]))
                     r = grasp["rotation"]
-                    row.update(grasp_x=grasp["position"][0], grasp_y=grasp["position"][1], grasp_z=grasp["position"][2],
-                               approach_x=r[0, 0], approach_y=r[1, 0], approach_z=r[2, 0],
-                               binormal_x=r[0, 1], binormal_y=r[1, 1], binormal_z=r[2, 1],
-                               width_m=grasp["width_m"], score=grasp["score"])
-                rows.append(row)
+                    trial_row.update(grasp_x=grasp["position"][0], grasp_y=grasp["position"][1],
+                                     grasp_z=grasp["position"][2], approach_x=r[0, 0], approach_y=r[1, 0],
+                                     approach_z=r[2, 0], binormal_x=r[0, 1], binormal_y=r[1, 1], binormal_z=r[2, 1],
+                                     width_m=grasp["width_m"], score=grasp["score"], source=grasp.get("source", ""))
+                    trial_row.update({"f_" + k: v for k, v in grasp.get("features", {}).items()})
+                    rows.append(trial_row)
     return rows
 
 
@@ -249,7 +259,7 @@ def summarise(rows, planners, gripper_name, split_label):
     lines = []
     table = []
     for planner in planners:
-        r = [x for x in rows if x.get("planner") == planner]
+        r = [x for x in rows if x.get("planner") == planner and int(x.get("rank", 1)) == 1]
         n = len(r)
         if n == 0:
             continue
@@ -275,7 +285,7 @@ def plots(rows, planners, out_dir, title):
         import matplotlib.pyplot as plt
     except ImportError:
         return
-    trials = [x for x in rows if x.get("planner") in planners]
+    trials = [x for x in rows if x.get("planner") in planners and int(x.get("rank", 1)) == 1]
     fig, ax = plt.subplots(figsize=(7, 3.5))
     values = [100.0 * np.mean([bool(x.get("success")) for x in trials if x["planner"] == p] or [0]) for p in planners]
     ax.bar(planners, values, color="#4a7")
@@ -327,7 +337,8 @@ def main(argv):
         results = [evaluate_scene(j) for j in jobs]
     rows = [r for rs in results for r in rs]
     with open(os.path.join(args.out_dir, "trials.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=FIELDS, extrasaction="ignore")
+        extra = sorted({k for r in rows for k in r if k.startswith("f_")})
+        w = csv.DictWriter(f, fieldnames=FIELDS + ["source"] + extra, extrasaction="ignore")
         w.writeheader()
         for r in rows:
             w.writerow(r)

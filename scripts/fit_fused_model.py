@@ -1,0 +1,184 @@
+#!/usr/bin/env python3
+"""Fits the fused planner's success model to physics outcomes and writes it into
+config/grasp_planners.yaml (the block between `# BEGIN fitted model` and `# END fitted model`).
+
+Input: trials.csv files of scripts/evaluate_grasps_physics.py run on the TRAINING objects with
+`--planners fused --pool 60` and a fused max_grasps of 100 (every pooled candidate simulated,
+with its features f_*). Label: the grasp held and touched nothing before closing. Model: L2-
+regularised logistic regression (Newton steps), the one the C++ side scores with
+(grasp_features.h). Printed: per-scene top-1 success of the fitted ranking, in-sample and
+leave-one-object-out, beside the pool's ceiling (some candidate held).
+
+    PY="$(bash scripts/setup_venv.sh)"
+    "$PY" scripts/evaluate_grasps_physics.py --split train --planners fused --pool 60 \\
+        --params /tmp/params_pool.yaml --out-dir bench_out/pool_train
+    "$PY" scripts/fit_fused_model.py bench_out/pool_train/trials.csv [--write]
+"""
+import argparse
+import csv
+import os
+import re
+import sys
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+CONFIG = os.path.join(ROOT, "config/grasp_planners.yaml")
+
+
+def load(paths):
+    rows = []
+    for path in paths:
+        with open(path) as f:
+            rows += [r for r in csv.DictReader(f) if r.get("planner") == "fused" and r.get("status") == "ok"
+                     and r.get("unstable") != "True"]
+    if not rows:
+        sys.exit("no fused candidate trials in %s" % ", ".join(paths))
+    names = sorted(k[2:] for k in rows[0] if k.startswith("f_"))
+    x = np.array([[float(r["f_" + n] or 0.0) for n in names] for r in rows])
+    y = np.array([1.0 if r["success"] == "True" and r["unexpected_contact"] != "True" else 0.0 for r in rows])
+    scene = ["%s/%s/%s/%s" % (r["object"], r["pose"], r["view"], r["gripper"]) for r in rows]
+    objects = [r["object"] for r in rows]
+    return names, x, y, scene, objects
+
+
+def fit(x, y, scene, l2=0.05, iterations=400):
+    """Ranking, then calibration. The score is fitted so that within each scene the candidates
+    that held come first (softmax over the scene's candidates, maximising the probability of
+    picking one that held: per-candidate logistic regression was worse at the top-1 choice, as
+    scenes with many easy candidates dominate it); a 1-D logistic fit of the outcome on that
+    score then turns it into a success probability. Features standardised inside, weights
+    returned raw."""
+    mean, std = x.mean(axis=0), x.std(axis=0)
+    std[std < 1e-9] = 1.0
+    z = (x - mean) / std
+    groups = {}
+    for i, s in enumerate(scene):
+        groups.setdefault(s, []).append(i)
+    # scenes where every candidate held or none did say nothing about the ranking
+    informative = [np.array(g) for g in groups.values() if 0 < y[g].sum() < len(g)]
+    w = np.zeros(z.shape[1])
+    rate = 0.5
+    for _ in range(iterations):
+        grad = l2 * w * len(informative)
+        for g in informative:
+            s = z[g] @ w
+            e = np.exp(s - s.max())
+            p_all = e / e.sum()
+            good = y[g] > 0.5
+            p_good = e * good / (e * good).sum()
+            grad += z[g].T @ (p_all - p_good)
+        w -= rate * grad / max(1, len(informative))
+    score = z @ w
+    a, b = _logistic_1d(score, y)
+    if a <= 0.0:
+        # across scenes the score may not sort outcomes even where it sorts each scene: keep
+        # the ranking (a > 0) and give up on calibration
+        a, b = 1e-3, float(np.log(max(y.mean(), 1e-3) / max(1.0 - y.mean(), 1e-3)))
+    weights = a * w / std
+    bias = b - float(weights @ mean)
+    return bias, weights
+
+
+def _logistic_1d(s, y, iterations=50):
+    """(a, b) of p = sigmoid(a s + b) by Newton steps."""
+    z = np.stack([s, np.ones_like(s)], axis=1)
+    w = np.array([1.0, 0.0])
+    for _ in range(iterations):
+        p = 1.0 / (1.0 + np.exp(-np.clip(z @ w, -30, 30)))
+        grad = z.T @ (p - y)
+        hess = (z * (p * (1 - p))[:, None]).T @ z + 1e-6 * np.eye(2)
+        w -= np.linalg.solve(hess, grad)
+    return w[0], w[1]
+
+
+def fit_pointwise(x, y, l2=0.05, iterations=50):
+    """Logistic regression, bias unpenalised (kept for comparison: --pointwise)."""
+    mean, std = x.mean(axis=0), x.std(axis=0)
+    std[std < 1e-9] = 1.0
+    z = np.hstack([np.ones((len(x), 1)), (x - mean) / std])
+    w = np.zeros(z.shape[1])
+    penalty = np.full(z.shape[1], l2 * len(x))
+    penalty[0] = 0.0
+    for _ in range(iterations):
+        p = 1.0 / (1.0 + np.exp(-z @ w))
+        grad = z.T @ (p - y) + penalty * w
+        hess = (z * (p * (1 - p))[:, None]).T @ z + np.diag(penalty + 1e-9)
+        step = np.linalg.solve(hess, grad)
+        w -= step
+        if np.abs(step).max() < 1e-8:
+            break
+    weights = w[1:] / std
+    bias = w[0] - float(weights @ mean)
+    return bias, weights
+
+
+def top1(x, y, scene, bias, weights, order=None):
+    """Per scene: does the candidate the model ranks first hold? (ties keep the pool order)"""
+    score = bias + x @ weights
+    best = {}
+    for i, s in enumerate(scene):
+        if s not in best or score[i] > score[best[s]] + 1e-12:
+            best[s] = i
+    return np.mean([y[i] for i in best.values()]), len(best)
+
+
+def ceiling(y, scene):
+    held = {}
+    for i, s in enumerate(scene):
+        held[s] = max(held.get(s, 0.0), y[i])
+    return np.mean(list(held.values()))
+
+
+def write_block(names, bias, weights, provenance):
+    with open(CONFIG) as f:
+        text = f.read()
+    lines = ["  # BEGIN fitted model (scripts/fit_fused_model.py)", "  model:",
+             '    fitted_on: "%s"' % provenance, "    bias: %.6g" % bias, "    weights:"]
+    lines += ["      %s: %.6g" % (n, w) for n, w in zip(names, weights)]
+    lines.append("  # END fitted model")
+    new, count = re.subn(r"  # BEGIN fitted model.*?  # END fitted model", "\n".join(lines), text, flags=re.S)
+    if count != 1:
+        sys.exit("%s: no BEGIN/END fitted model block" % CONFIG)
+    with open(CONFIG, "w") as f:
+        f.write(new)
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("trials", nargs="+", help="trials.csv of fused pool runs on the training objects")
+    p.add_argument("--l2", type=float, default=0.05)
+    p.add_argument("--write", action="store_true", help="write the model into config/grasp_planners.yaml")
+    args = p.parse_args(argv)
+    names, x, y, scene, objects = load(args.trials)
+    bias, weights = fit(x, y, scene, args.l2)
+    in_sample, scenes = top1(x, y, scene, bias, weights)
+    pool_order, _ = top1(x, y, scene, 0.0, np.zeros(len(names)))
+    # leave one object out: the ranking on objects the model never saw
+    held = []
+    for obj in sorted(set(objects)):
+        train = np.array([o != obj for o in objects])
+        b, w = fit(x[train], y[train], [s for s, t in zip(scene, train) if t], args.l2)
+        idx = np.where(~train)[0]
+        acc, n = top1(x[idx], y[idx], [scene[i] for i in idx], b, w)
+        held += [acc] * n
+    print("%d candidates in %d scenes of %d objects, %.0f %% of candidates held" %
+          (len(y), scenes, len(set(objects)), 100.0 * y.mean()))
+    print("top-1 success: pool order %.0f %%, fitted in-sample %.0f %%, leave-one-object-out %.0f %%, "
+          "ceiling (some candidate held) %.0f %%" % (100 * pool_order, 100 * in_sample, 100 * np.mean(held),
+                                                     100 * ceiling(y, scene)))
+    for n, w in sorted(zip(names, weights), key=lambda t: -abs(t[1])):
+        print("  %-24s %+.3f" % (n, w))
+    print("  %-24s %+.3f" % ("bias", bias))
+    if args.write:
+        provenance = "%d candidates, %d training scenes (%s), leave-one-object-out top-1 %.0f %%" % (
+            len(y), scenes, os.path.basename(os.path.dirname(os.path.abspath(args.trials[0]))), 100 * np.mean(held))
+        write_block(names, bias, weights, provenance)
+        print("wrote the model into %s" % CONFIG)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
