@@ -353,8 +353,9 @@ def main(argv):
     splits = ["train", "heldout"] if args.split == "all" else [args.split]
     final = []
     for split in splits:
+        label = "single" if not args.follow_next_view else "within-%d-views" % (1 + args.follow_next_view)
         table, lines = summarise([r for r in rows if r.get("split") == split], planners, gripper["name"],
-                                 "single" if split == "heldout" else "single-" + split)
+                                 label if split == "heldout" else label + "-" + split)
         out.append("| **%s** | | | | | | |" % split)
         out += ["| %s | %d | %.0f | %.0f | %.0f | %.0f | %.1f |" % t for t in table]
         final += lines

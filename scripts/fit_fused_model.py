@@ -87,8 +87,9 @@ def _logistic_1d(s, y, iterations=50):
     w = np.array([1.0, 0.0])
     for _ in range(iterations):
         p = 1.0 / (1.0 + np.exp(-np.clip(z @ w, -30, 30)))
-        grad = z.T @ (p - y)
-        hess = (z * (p * (1 - p))[:, None]).T @ z + 1e-6 * np.eye(2)
+        ridge = np.array([1.0, 0.0])  # keeps the slope finite when the score separates the outcomes
+        grad = z.T @ (p - y) + ridge * w
+        hess = (z * (p * (1 - p))[:, None]).T @ z + np.diag(ridge + 1e-6)
         w -= np.linalg.solve(hess, grad)
     return w[0], w[1]
 

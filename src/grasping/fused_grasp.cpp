@@ -179,8 +179,26 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& view, const GripperModel& 
   result.candidates_evaluated += generated.size();
 
   for (auto& g : pool)
-  {
     g.grasp.features = graspFeatures(g.grasp, g.source, view, extent, gripper);
+  // Support: how many other candidates (any source) close on nearly the same line. A grasp that
+  // several methods or neighbouring directions agree on is less sensitive to where the hand
+  // really ends up.
+  const std::size_t support_index = graspFeatureNames().size() - 1;
+  for (std::size_t i = 0; i < pool.size(); ++i)
+  {
+    std::size_t near = 0;
+    const Eigen::Isometry3d& a = pool[i].grasp.pose;
+    for (std::size_t j = 0; j < pool.size(); ++j)
+    {
+      const Eigen::Isometry3d& b = pool[j].grasp.pose;
+      if (j != i && (a.translation() - b.translation()).norm() < 0.015 &&
+          std::abs(a.linear().col(1).dot(b.linear().col(1))) > std::cos(0.35))
+        ++near;
+    }
+    pool[i].grasp.features[support_index] = std::log1p(static_cast<double>(near)) / std::log(20.0);
+  }
+  for (auto& g : pool)
+  {
     g.grasp.score = params_.model.probability(g.grasp.features);
     g.grasp.algorithm = "fused/" + g.source;
   }

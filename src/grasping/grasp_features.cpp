@@ -72,7 +72,8 @@ const std::vector<std::string>& graspFeatureNames()
       n.push_back("from_" + s);
     for (const char* f : { "contact_height_frac", "contact_height_frac_sq", "centroid_arm_frac", "approach_down",
                            "width_frac", "grip_depth_frac", "points_between_log", "table_clearance_frac",
-                           "object_height_frac", "contact_facing", "contact_facing_up" })
+                           "object_height_frac", "contact_facing", "contact_facing_up", "cone_margin_rad",
+                           "neighbour_support" })
       n.emplace_back(f);
     return n;
   }();
@@ -159,6 +160,24 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   }
   f[k++] = contacts ? facing / static_cast<double>(contacts) : 0.0;
   f[k++] = contacts ? facing_up / static_cast<double>(contacts) : 0.0;
+  // Friction cone: the mean normal of the first 5 mm of each seen side against the closing
+  // line, as the margin to atan(0.8) (the evaluator's friction); the worse side counts, an
+  // unseen side does not.
+  double margin = 0.6;
+  for (const float side : { -1.0f, 1.0f })
+  {
+    Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+    for (const auto& [y, normal] : region)
+      if (side > 0.0f ? y > y_max - 0.005f : y < y_min + 0.005f)
+        mean += normal;
+    if (mean.norm() < 1e-3f)
+      continue;
+    // the outward normal at the +Y contact points along +Y (toward the finger)
+    const float cosine = clampf(side * mean.normalized().dot(closing), -1.0f, 1.0f);
+    margin = std::min(margin, std::atan(0.8) - std::acos(static_cast<double>(cosine)));
+  }
+  f[k++] = between > 0 ? margin : -1.0;
+  f[k++] = 0.0;  // neighbour_support: filled in by the fused planner, which sees the whole pool
   return f;
 }
 

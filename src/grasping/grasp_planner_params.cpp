@@ -149,6 +149,7 @@ GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
   reader.readNonNegative("closing_margin_m", p.closing_margin_m);
   reader.readNonNegative("max_table_tilt_rad", p.max_table_tilt_rad);
   reader.readNonNegative("tilt_step_rad", p.tilt_step_rad);
+  reader.readNonNegative("max_advance_m", p.max_advance_m);
   reader.rejectUnknownKeys();
   return p;
 }

@@ -48,6 +48,8 @@ std::string GripperFitParams::validate() const
     why << "gripper_fit/max_table_tilt_rad must be in [0, pi]; ";
   if (!(tilt_step_rad > 0.0))
     why << "gripper_fit/tilt_step_rad must be > 0; ";
+  if (!(max_advance_m >= 0.0 && max_advance_m <= 0.2))
+    why << "gripper_fit/max_advance_m must be in [0, 0.2]; ";
   return why.str();
 }
 
@@ -212,9 +214,24 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
   return result;
 }
 
+GripperFit GripperVolumeCheck::fitDeepest(const Eigen::Isometry3d& pose, double width_m) const
+{
+  constexpr double kAdvanceStepM = 0.005;
+  const int steps = static_cast<int>(std::floor(params_.max_advance_m / kAdvanceStepM + 1e-9));
+  for (int k = steps; k > 0; --k)
+  {
+    Eigen::Isometry3d deeper = pose;
+    deeper.translation() += static_cast<double>(k) * kAdvanceStepM * pose.linear().col(0);
+    GripperFit fitted = fit(deeper, width_m);
+    if (fitted.ok)
+      return fitted;
+  }
+  return fit(pose, width_m);
+}
+
 GripperFit GripperVolumeCheck::fitOrTilt(const Eigen::Isometry3d& pose, double width_m) const
 {
-  GripperFit first = fit(pose, width_m);
+  GripperFit first = fitDeepest(pose, width_m);
   if (first.ok || !first.blocked_by_table || !has_table_ || params_.max_table_tilt_rad <= 0.0)
     return first;
   // Turn the approach about the closing line toward "down" (-table normal) projected onto the
@@ -234,7 +251,7 @@ GripperFit GripperVolumeCheck::fitOrTilt(const Eigen::Isometry3d& pose, double w
     tilt = std::min(tilt, reach);
     Eigen::Isometry3d turned = pose;
     turned.linear() = Eigen::AngleAxisd(sign * tilt, closing).toRotationMatrix() * pose.linear();
-    GripperFit fitted = fit(turned, width_m);
+    GripperFit fitted = fitDeepest(turned, width_m);
     if (fitted.ok)
       return fitted;
     if (tilt >= reach)

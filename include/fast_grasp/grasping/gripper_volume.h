@@ -74,6 +74,11 @@ struct GripperFitParams
   /// approach, and on low objects the table then rejects most of their grasps.
   double max_table_tilt_rad = 1.2;
   double tilt_step_rad = 0.2;
+  /// Before fitting, the hand is pushed up to this much further along its approach (in 5 mm
+  /// steps, deepest first) and the deepest pose that fits is kept: the palm stops at the
+  /// object, more finger is on it and the closing line moves toward the object's middle.
+  /// 0 = the planner's depth. Beyond the thesis: fingertip-only closures slipped in physics.
+  double max_advance_m = 0.0;
 
   std::string validate() const;
 };
@@ -114,10 +119,13 @@ public:
   /// still has min_points_between_fingers seen points between the fingers closed to `width_m`.
   GripperFit fit(const Eigen::Isometry3d& pose, double width_m) const;
 
-  /// fit(), and where the table blocks the hand, fit() of the grasp turned about its closing
-  /// line toward an approach from above (max_table_tilt_rad): the first that fits, else the
-  /// untilted result.
+  /// fit() of the grasp pushed deeper (max_advance_m), and where the table blocks the hand, of
+  /// the grasp turned about its closing line toward an approach from above
+  /// (max_table_tilt_rad): the first that fits, else the plain fit()'s result.
   GripperFit fitOrTilt(const Eigen::Isometry3d& pose, double width_m) const;
+  /// fit() of `pose` pushed k * 5 mm along its approach, k from max_advance_m / 5 mm down to 0:
+  /// the first that fits, else the plain fit()'s result.
+  GripperFit fitDeepest(const Eigen::Isometry3d& pose, double width_m) const;
 
   /// Applies fitOrTilt() to the grasps in order (best first) until `max_kept` fit: kept grasps get
   /// the fitted pose, the rest are removed. Returns how many were checked and dropped and, in
