@@ -96,8 +96,9 @@ void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const Gr
     if (width > gripper.max_opening_m - 0.005)
       continue;
     const auto [front, back] = extentAlong(*view.cloud, approach);
-    // The far side is unseen: take the object as deep as it is wide, within what was seen.
-    const float depth_centre = std::min(front + 0.5f * static_cast<float>(width), back);
+    // The far side is unseen: the middle of what was seen along the approach (the top, where
+    // visible, spans the depth), but no deeper than a round object as deep as it is wide.
+    const float depth_centre = std::min(0.5f * (front + back), front + 0.5f * static_cast<float>(width));
     Eigen::Vector3f centre = extent.centroid;
     centre += (centre_height - centroid_height) * extent.up;
     centre += (depth_centre - approach.dot(centre)) * approach;

@@ -161,19 +161,21 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   f[k++] = contacts ? facing / static_cast<double>(contacts) : 0.0;
   f[k++] = contacts ? facing_up / static_cast<double>(contacts) : 0.0;
   // Friction cone: the mean normal of the first 5 mm of each seen side against the closing
-  // line, as the margin to atan(0.8) (the evaluator's friction); the worse side counts, an
-  // unseen side does not.
-  double margin = 0.6;
+  // line, as the margin to atan(0.8) (the evaluator's friction); the worse side counts. Only
+  // points whose normal faces that finger count (a top face's rim is no contact), and a side
+  // with none is unseen and does not count.
+  double margin = std::atan(0.8);
   for (const float side : { -1.0f, 1.0f })
   {
     Eigen::Vector3f mean = Eigen::Vector3f::Zero();
     for (const auto& [y, normal] : region)
-      if (side > 0.0f ? y > y_max - 0.005f : y < y_min + 0.005f)
+      if ((side > 0.0f ? y > y_max - 0.005f : y < y_min + 0.005f) && side * normal.dot(closing) > 0.2f)
         mean += normal;
     if (mean.norm() < 1e-3f)
       continue;
-    // the outward normal at the +Y contact points along +Y (toward the finger)
-    const float cosine = clampf(side * mean.normalized().dot(closing), -1.0f, 1.0f);
+    // the outward normal at the +Y side points along +Y, toward that finger: normals are
+    // oriented toward the sensor, so flip them to the finger's side
+    const float cosine = clampf(std::abs(mean.normalized().dot(closing)), 0.0f, 1.0f);
     margin = std::min(margin, std::atan(0.8) - std::acos(static_cast<double>(cosine)));
   }
   f[k++] = between > 0 ? margin : -1.0;

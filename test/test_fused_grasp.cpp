@@ -1,0 +1,150 @@
+// The fused planner and its grasp features on analytic shapes whose right answer is derived by
+// hand: a 4 x 6 x 8 cm box standing on the table, seen from 45 deg above.
+#include "fast_grasp/grasping/fused_grasp.h"
+#include "fast_grasp/grasping/grasp_features.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+
+#include "synthetic_views.h"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+namespace fast_grasp
+{
+namespace
+{
+// Box: 4 cm along x, 6 cm along y, 8 cm tall, standing on z = 0 (the table).
+ObjectView boxView()
+{
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.43);
+  auto cloud = synthetic::renderView(synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.06, 0.08 }),
+                                     { camera, 0.002, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
+std::size_t featureIndex(const std::string& name)
+{
+  const auto& names = graspFeatureNames();
+  return static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+}
+
+FusedParams onlyGenerated()
+{
+  FusedParams p;
+  p.planners.clear();
+  return p;
+}
+}  // namespace
+
+TEST(GraspFeatures, TopDownGraspAcrossTheBoxReadsAsItsGeometry)
+{
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const ObjectExtent extent = objectExtent(view);
+  EXPECT_NEAR(extent.height_m, 0.08, 0.003);
+  // Top-down, closing along x (across the 4 cm side), closing line 2 cm below the top.
+  GraspCandidate grasp;
+  grasp.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.06), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  const auto f = graspFeatures(grasp, "top_down", view, extent, gripper);
+  ASSERT_EQ(f.size(), graspFeatureNames().size());
+  EXPECT_EQ(f[featureIndex("from_top_down")], 1.0);
+  EXPECT_EQ(f[featureIndex("from_cshape")], 0.0);
+  EXPECT_NEAR(f[featureIndex("contact_height_frac")], 0.06 / 0.08, 0.03);
+  EXPECT_NEAR(f[featureIndex("approach_down")], 1.0, 1e-6);
+  // The seen points between the fingers span the 4 cm across (the camera sees the -x face and
+  // the top): width over the 85 mm opening.
+  EXPECT_NEAR(f[featureIndex("width_frac")], 0.04 / 0.085, 0.03);
+  // The -x face is square to the closing line: inside the friction cone by atan(0.8).
+  EXPECT_NEAR(f[featureIndex("cone_margin_rad")], std::atan(0.8), 0.1);
+}
+
+TEST(FusedGrasp, GeneratedCandidatesCloseAcrossTheNarrowSideAndStayOffTheTable)
+{
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  std::vector<std::unique_ptr<GraspPlanner>> none;
+  FusedGraspPlanner planner(std::move(none), onlyGenerated());
+  const GraspResult result = planner.plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  for (const GraspCandidate& g : result.grasps)
+  {
+    // Across 4 cm or 6 cm fits the 85 mm opening, the 8 cm height is never a closing width.
+    EXPECT_LT(g.width_m, 0.085);
+    EXPECT_GT(g.width_m, 0.035);
+    // every corner of the open hand above the table (the fingertips are 2 cm below the line)
+    const double fingertip = g.position().z() + 0.02 * g.approach().z() - 0.011 * std::abs(g.axis().z());
+    EXPECT_GT(fingertip, 0.0) << g.algorithm;
+    EXPECT_EQ(g.features.size(), graspFeatureNames().size());
+  }
+}
+
+TEST(FusedGrasp, TheModelDecidesTheRanking)
+{
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  for (const std::string favoured : { "top_down", "side" })
+  {
+    FusedParams p = onlyGenerated();
+    p.model.weights.assign(graspFeatureNames().size(), 0.0);
+    p.model.weights[featureIndex("from_" + favoured)] = 3.0;
+    FusedGraspPlanner planner({}, p);
+    const GraspResult result = planner.plan(view, gripper);
+    ASSERT_TRUE(result.ok()) << result.message;
+    EXPECT_EQ(result.grasps.front().algorithm, "fused/" + favoured);
+    EXPECT_NEAR(result.grasps.front().score, 1.0 / (1.0 + std::exp(-3.0)), 1e-9);
+    for (std::size_t i = 1; i < result.grasps.size(); ++i)
+      EXPECT_GE(result.grasps[i - 1].score, result.grasps[i].score);
+  }
+}
+
+TEST(FusedGrasp, PoolsTheThesisPlannersWithTheirOwnParameters)
+{
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspPlannerConfig config;
+  config.fused.max_grasps = 200;
+  const auto planner = makeGraspPlanner("fused", config);
+  ASSERT_TRUE(planner);
+  EXPECT_STREQ(planner->name(), "fused");
+  const GraspResult result = planner->plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  std::set<std::string> sources;
+  for (const auto& g : result.grasps)
+    sources.insert(g.algorithm);
+  EXPECT_TRUE(sources.count("fused/top_down")) << result.message;
+  EXPECT_GE(sources.size(), 2u) << result.message;
+}
+
+TEST(FusedGrasp, BadInputAndBadModelAreTypedFailures)
+{
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  FusedGraspPlanner planner({}, onlyGenerated());
+  ObjectView empty;
+  empty.cloud.reset(new CloudNormal);
+  EXPECT_EQ(planner.plan(empty, gripper).failure, GraspFailure::EmptyInput);
+  FusedParams bad = onlyGenerated();
+  bad.model.weights = { 1.0, 2.0 };  // not one per feature
+  FusedGraspPlanner wrong({}, bad);
+  EXPECT_EQ(wrong.plan(boxView(), gripper).failure, GraspFailure::InvalidParameters);
+}
+
+TEST(FusedGrasp, YamlModelNamesFeatures)
+{
+  const YAML::Node node = YAML::Load("{model: {bias: 0.5, weights: {from_side: 2.0, approach_down: -1.0}}}");
+  const FusedParams p = fusedParamsFromYaml(node);
+  ASSERT_EQ(p.model.weights.size(), graspFeatureNames().size());
+  EXPECT_EQ(p.model.weights[featureIndex("from_side")], 2.0);
+  EXPECT_EQ(p.model.weights[featureIndex("approach_down")], -1.0);
+  EXPECT_EQ(p.model.bias, 0.5);
+  EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{model: {weights: {no_such_feature: 1.0}}}")), std::runtime_error);
+  EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{planners: [fused]}")), std::runtime_error);
+}
+
+}  // namespace fast_grasp
