@@ -1,0 +1,284 @@
+// bench_segmentation: how many labelled objects of real Kinect tabletop scenes come out of the
+// table segmentation as exactly one cluster, and the ms per frame, one core.
+//
+// Input: the mOSD learn set (../shared/data/mosd-learn, not in the repository: organised
+// 640x480 PCDs with fields label x y z rgba; labels 1-9 table, label / 10 = object id). Per
+// scene the cloud is down-sampled as the deployed pipeline does (5 mm; pcl::UniformSampling, so
+// every kept point is a real one and keeps its label), the table up axis is taken from the
+// table-labelled points (the scenes give no camera pose), and segmentTable() runs with the
+// deployed parameters of config/perception.yaml. Each labelled object is matched to the
+// cluster holding most of its points: "right" when that cluster's precision >= 0.9 and the
+// object's recall >= 0.8, "merged" when the precision is lower (the cluster holds other
+// objects), "split" otherwise. Objects with fewer than --min-points down-sampled points are
+// not counted; "fits" = the object's narrowest horizontal width of seen points is within the
+// gripper opening (--opening, default the Robotiq 2F-85's 0.085 m).
+//
+// Scenes are split for development (even numbers: tune on these) and held out (odd numbers:
+// report, never tune), --split dev | heldout | all.
+//
+//   rosrun fast_grasp bench_segmentation [--data DIR] [--split S] [--min-points N] [--opening M] [--scenes a,b]
+// Last line: `segmentation: right P % (fits: Q %) merged M % split S % median X ms per frame`.
+#include "command_line.h"
+#include "fast_grasp/perception/table_segmentation.h"
+
+#include <pcl/filters/uniform_sampling.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace
+{
+using LabelledCloud = pcl::PointCloud<pcl::PointXYZRGBL>;
+
+double median(std::vector<double> values)
+{
+  if (values.empty())
+    return 0.0;
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+/// Least-squares normal of the table-labelled points, turned toward the camera (origin).
+Eigen::Vector3f tableUp(const LabelledCloud& cloud)
+{
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  for (const auto& p : cloud.points)
+    if (p.label >= 1 && p.label <= 9 && std::isfinite(p.z))
+    {
+      mean += p.getVector3fMap().cast<double>();
+      ++n;
+    }
+  if (n < 3)
+    return Eigen::Vector3f(0.0f, -1.0f, 0.0f);
+  mean /= static_cast<double>(n);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : cloud.points)
+    if (p.label >= 1 && p.label <= 9 && std::isfinite(p.z))
+    {
+      const Eigen::Vector3d d = p.getVector3fMap().cast<double>() - mean;
+      cov += d * d.transpose();
+    }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(cov);
+  Eigen::Vector3d up = solver.eigenvectors().col(0);
+  if (up.dot(-mean) < 0.0)
+    up = -up;  // the camera is above the table
+  return up.cast<float>();
+}
+
+/// Narrowest width of the points across directions in the plane perpendicular to `up`.
+double narrowestWidth(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& up)
+{
+  const Eigen::Vector3f seed = std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f e1 = (seed - seed.dot(up) * up).normalized(), e2 = up.cross(e1);
+  double best = 1e9;
+  for (int k = 0; k < 36; ++k)
+  {
+    const double a = M_PI * k / 36.0;
+    const Eigen::Vector3f d = static_cast<float>(std::cos(a)) * e1 + static_cast<float>(std::sin(a)) * e2;
+    float lo = 1e9f, hi = -1e9f;
+    for (const auto& p : points)
+    {
+      lo = std::min(lo, d.dot(p));
+      hi = std::max(hi, d.dot(p));
+    }
+    best = std::min(best, static_cast<double>(hi - lo));
+  }
+  return best;
+}
+
+struct Counts
+{
+  int objects = 0, right = 0, merged = 0, split = 0;
+  int fit_objects = 0, fit_right = 0;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  static const char* const kUsage =
+      "usage: bench_segmentation [--data DIR] [--split dev|heldout|all] [--min-points N] [--opening M]\n"
+      "                          [--scenes learn0,learn5]\n"
+      "  labelled objects of the mOSD learn scenes that come out as exactly one cluster, and ms per frame\n"
+      "  --data DIR        folder of learn*.pcd (default $FAST_GRASP_MOSD_DIR or ../shared/data/mosd-learn)\n"
+      "  --split S         dev (even-numbered scenes, tune on these), heldout (odd) or all (default)\n"
+      "  --min-points N    objects with fewer down-sampled points are not counted (default 50)\n"
+      "  --opening M       gripper opening for the 'fits' count (default 0.085)\n"
+      "  --scenes LIST     only these scenes\n";
+  fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
+  std::string data = std::getenv("FAST_GRASP_MOSD_DIR") ? std::getenv("FAST_GRASP_MOSD_DIR") : "";
+  if (data.empty())
+    data = std::string(FAST_GRASP_SOURCE_DIR) + "/../shared/data/mosd-learn";
+  std::size_t min_points = 50;
+  double opening = 0.085;
+  std::set<std::string> only;
+  std::string split = "all";
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string flag = argv[i];
+    if (i + 1 >= argc)
+      fast_grasp::exitWithUsage("flag " + flag + " needs a value", kUsage);
+    const std::string value = argv[++i];
+    if (flag == "--data")
+      data = value;
+    else if (flag == "--min-points")
+      min_points = static_cast<std::size_t>(std::stoul(value));
+    else if (flag == "--split")
+    {
+      split = value;
+      if (split != "dev" && split != "heldout" && split != "all")
+        fast_grasp::exitWithUsage("--split: '" + split + "' is none of dev, heldout, all", kUsage);
+    }
+    else if (flag == "--opening")
+      opening = std::stod(value);
+    else if (flag == "--scenes")
+    {
+      std::stringstream list(value);
+      std::string name;
+      while (std::getline(list, name, ','))
+        only.insert(name);
+    }
+    else
+      fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
+  }
+  std::vector<std::string> files;
+  if (std::filesystem::is_directory(data))
+    for (const auto& entry : std::filesystem::directory_iterator(data))
+      if (entry.path().extension() == ".pcd" && (only.empty() || only.count(entry.path().stem().string())))
+        files.push_back(entry.path().string());
+  if (files.empty())
+  {
+    std::fprintf(stderr, "bench_segmentation: no PCD files in %s (the mOSD learn set; see --help)\n", data.c_str());
+    return 1;
+  }
+  std::sort(files.begin(), files.end(), [](const std::string& a, const std::string& b) {
+    auto number = [](const std::string& s) {
+      const std::string stem = std::filesystem::path(s).stem().string();
+      const auto digits = stem.find_first_of("0123456789");
+      return digits == std::string::npos ? 0 : std::stoi(stem.substr(digits));
+    };
+    return number(a) < number(b);
+  });
+  if (split != "all")
+  {
+    std::vector<std::string> kept;
+    for (const std::string& f : files)
+    {
+      const std::string stem = std::filesystem::path(f).stem().string();
+      const auto digits = stem.find_first_of("0123456789");
+      const int n = digits == std::string::npos ? 0 : std::stoi(stem.substr(digits));
+      if ((n % 2 == 0) == (split == "dev"))
+        kept.push_back(f);
+    }
+    files.swap(kept);
+  }
+
+  fast_grasp::TableSegmentationParams params;  // config/perception.yaml's values
+  params.plane_distance_m = 0.01;
+  params.min_height_above_table_m = 0.01;
+  params.cluster_tolerance_m = 0.02;
+  params.min_cluster_points = 30;
+  params.max_object_distance_m = 0.0;  // no robot here: every cluster counts
+  Counts total;
+  std::vector<double> frame_ms;
+  std::printf("%-10s %7s %5s %5s %6s %5s %8s\n", "scene", "objects", "right", "merged", "split", "fits", "ms");
+  for (const std::string& file : files)
+  {
+    LabelledCloud::Ptr raw(new LabelledCloud);
+    if (pcl::io::loadPCDFile(file, *raw) < 0)
+    {
+      std::fprintf(stderr, "bench_segmentation: cannot read %s\n", file.c_str());
+      continue;
+    }
+    params.up_axis = tableUp(*raw);  // ground truth stands in for the camera pose: not timed
+    const auto start = std::chrono::steady_clock::now();
+    // Down-sample as the pipeline does, keeping real points (and so their labels).
+    LabelledCloud::Ptr finite(new LabelledCloud);
+    for (const auto& p : raw->points)
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+        finite->push_back(p);
+    pcl::UniformSampling<pcl::PointXYZRGBL> sampling;
+    sampling.setInputCloud(finite);
+    sampling.setRadiusSearch(0.005);
+    LabelledCloud sampled;
+    sampling.filter(sampled);
+    fast_grasp::CloudXYZ::Ptr xyz(new fast_grasp::CloudXYZ);
+    xyz->reserve(sampled.size());
+    for (const auto& p : sampled.points)
+      xyz->push_back(pcl::PointXYZ(p.x, p.y, p.z));
+    const fast_grasp::TableSegmentationResult result = fast_grasp::segmentTable(xyz, params);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    frame_ms.push_back(ms);
+
+    // Ground truth: object id per sampled point.
+    std::map<int, std::vector<std::size_t>> objects;
+    for (std::size_t i = 0; i < sampled.size(); ++i)
+      if (sampled[i].label >= 10)
+        objects[static_cast<int>(sampled[i].label / 10)].push_back(i);
+    std::vector<int> cluster_of(sampled.size(), -1);
+    for (std::size_t c = 0; c < result.clusters.size(); ++c)
+      for (const int i : result.clusters[c].indices)
+        cluster_of[static_cast<std::size_t>(i)] = static_cast<int>(c);
+    Counts scene;
+    for (const auto& [id, members] : objects)
+    {
+      if (members.size() < min_points)
+        continue;
+      std::map<int, std::size_t> overlap;
+      for (const std::size_t i : members)
+        if (cluster_of[i] >= 0)
+          ++overlap[cluster_of[i]];
+      int best = -1;
+      std::size_t best_overlap = 0;
+      for (const auto& [c, n] : overlap)
+        if (n > best_overlap)
+        {
+          best = c;
+          best_overlap = n;
+        }
+      const double recall = static_cast<double>(best_overlap) / static_cast<double>(members.size());
+      const double precision = best < 0 ? 0.0
+                                        : static_cast<double>(best_overlap) /
+                                              static_cast<double>(result.clusters[static_cast<std::size_t>(best)].indices.size());
+      std::vector<Eigen::Vector3f> points;
+      for (const std::size_t i : members)
+        points.push_back(sampled[i].getVector3fMap());
+      const bool fits = narrowestWidth(points, params.up_axis) <= opening;
+      const bool right = precision >= 0.9 && recall >= 0.8;
+      ++scene.objects;
+      scene.right += right;
+      scene.merged += !right && best >= 0 && precision < 0.9;
+      scene.split += !right && !(best >= 0 && precision < 0.9);
+      scene.fit_objects += fits;
+      scene.fit_right += fits && right;
+    }
+    std::printf("%-10s %7d %5d %5d %6d %5d %8.1f%s\n", std::filesystem::path(file).stem().c_str(), scene.objects,
+                scene.right, scene.merged, scene.split, scene.fit_objects, ms, result.ok() ? "" : "  (no cluster)");
+    total.objects += scene.objects;
+    total.right += scene.right;
+    total.merged += scene.merged;
+    total.split += scene.split;
+    total.fit_objects += scene.fit_objects;
+    total.fit_right += scene.fit_right;
+  }
+  auto pct = [](int a, int b) { return b > 0 ? 100.0 * a / b : 0.0; };
+  std::printf("split %s: %d scenes, %d labelled objects (%d fit the %.3f m opening)\n", split.c_str(), static_cast<int>(frame_ms.size()),
+              total.objects, total.fit_objects, opening);
+  std::printf("segmentation: right %.0f %% (fits: %.0f %%) merged %.0f %% split %.0f %% median %.1f ms per frame\n",
+              pct(total.right, total.objects), pct(total.fit_right, total.fit_objects), pct(total.merged, total.objects),
+              pct(total.split, total.objects), median(frame_ms));
+  return 0;
+}
