@@ -43,7 +43,7 @@ def load(paths):
     return names, x, y, scene, objects
 
 
-def fit(x, y, scene, l2=0.05, iterations=400):
+def fit(x, y, scene, l2=0.001, iterations=2000):
     """Ranking, then calibration. The score is fitted so that within each scene the candidates
     that held come first (softmax over the scene's candidates, maximising the probability of
     picking one that held: per-candidate logistic regression was worse at the top-1 choice, as
@@ -71,11 +71,16 @@ def fit(x, y, scene, l2=0.05, iterations=400):
             grad += z[g].T @ (p_all - p_good)
         w -= rate * grad / max(1, len(informative))
     score = z @ w
-    a, b = _logistic_1d(score, y)
-    if a <= 0.0:
-        # across scenes the score may not sort outcomes even where it sorts each scene: keep
-        # the ranking (a > 0) and give up on calibration
-        a, b = 1e-3, float(np.log(max(y.mean(), 1e-3) / max(1.0 - y.mean(), 1e-3)))
+    # Calibration: the slope from the scores centred per scene (what the ranking compares:
+    # across scenes the raw score need not sort the outcomes), the offset from the mean rate.
+    centred = score.copy()
+    for g in groups.values():
+        centred[g] -= score[g].mean()
+    a, _ = _logistic_1d(centred, y)
+    # bounded so the probabilities never saturate (equal 1.0s would lose the ranking)
+    a = min(max(a, 1e-3), 2.0 / max(float(score.std()), 1e-9))
+    rate = min(max(y.mean(), 1e-3), 1.0 - 1e-3)
+    b = float(np.log(rate / (1.0 - rate))) - a * float(score.mean())
     weights = a * w / std
     bias = b - float(weights @ mean)
     return bias, weights
@@ -150,7 +155,7 @@ def main(argv):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("trials", nargs="+", help="trials.csv of fused pool runs on the training objects")
-    p.add_argument("--l2", type=float, default=0.05)
+    p.add_argument("--l2", type=float, default=0.001)
     p.add_argument("--write", action="store_true", help="write the model into config/grasp_planners.yaml")
     args = p.parse_args(argv)
     names, x, y, scene, objects = load(args.trials)
