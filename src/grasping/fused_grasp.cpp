@@ -2,6 +2,8 @@
 
 #include "fast_grasp/grasping/planner_input.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -41,32 +43,74 @@ struct Generated
   std::string source;
 };
 
-/// Top-down grasps through the centroid: one per closing direction, the palm just above the top.
+/// Top-down grasps: one per closing direction at the centroid and at +-a quarter of the object's
+/// length along its major horizontal axis (a hammer's handle, a clamp's jaw). The width is what
+/// lies between the fingers (a finger-wide slab), not the whole object's extent, and the palm
+/// starts palm_clearance_m above the highest point under it.
 void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
                        const FusedParams& p, std::vector<Generated>& out)
 {
+  if (p.top_down_directions == 0)
+    return;
   const auto [e1, e2] = planeBasis(extent.up);
   const float finger_depth = static_cast<float>(gripper.finger_depth_m);
-  // Height of the closing line above the table: palm face palm_clearance_m above the top.
-  const float centre_height = extent.height_m + static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f -
-                              0.5f * finger_depth;
-  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
-  const Eigen::Vector3f centre = extent.centroid + (centre_height - centroid_height) * extent.up;
-  for (std::size_t i = 0; i < p.top_down_directions; ++i)
+  const float half_finger = 0.5f * static_cast<float>(gripper.finger_width_m) + 0.005f;
+  const float half_palm_z = 0.5f * static_cast<float>(gripper.palmWidth());
+  const float half_palm_y = 0.5f * static_cast<float>(gripper.max_opening_m) + static_cast<float>(gripper.finger_thickness_m);
+  // Major horizontal axis of the points (2-D PCA in the table plane).
+  Eigen::Matrix2f cov = Eigen::Matrix2f::Zero();
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(view.cloud->size());
+  for (const auto& q : view.cloud->points)
   {
-    const float angle = static_cast<float>(M_PI) * static_cast<float>(i) / static_cast<float>(p.top_down_directions);
-    const Eigen::Vector3f closing = std::cos(angle) * e1 + std::sin(angle) * e2;
-    const auto [lo, hi] = extentAlong(*view.cloud, closing);
-    const double width = static_cast<double>(hi - lo);
-    if (width > gripper.max_opening_m - 0.005)
+    const Eigen::Vector3f v = q.getVector3fMap();
+    if (!v.allFinite())
       continue;
-    Generated g;
-    g.source = "top_down";
-    g.grasp.pose = makeGraspPose(centre.cast<double>(), (-extent.up).cast<double>(), closing.cast<double>());
-    // the closing line through the middle of the object along the closing direction
-    g.grasp.pose.translation() += static_cast<double>(0.5f * (lo + hi) - closing.dot(centre)) * closing.cast<double>();
-    g.grasp.width_m = std::max(width, gripper.min_opening_m);
-    out.push_back(g);
+    points.push_back(v);
+    const Eigen::Vector2f d((v - extent.centroid).dot(e1), (v - extent.centroid).dot(e2));
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> pca(cov);
+  const Eigen::Vector2f major2 = pca.eigenvectors().col(1);
+  const Eigen::Vector3f major = major2.x() * e1 + major2.y() * e2;
+  const auto [major_lo, major_hi] = extentAlong(*view.cloud, major);
+  const float length = major_hi - major_lo;
+  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
+  for (const float offset : { 0.0f, -0.25f, 0.25f })
+  {
+    const Eigen::Vector3f through = extent.centroid + offset * length * major;
+    for (std::size_t i = 0; i < p.top_down_directions; ++i)
+    {
+      const float angle = static_cast<float>(M_PI) * static_cast<float>(i) / static_cast<float>(p.top_down_directions);
+      const Eigen::Vector3f closing = std::cos(angle) * e1 + std::sin(angle) * e2;
+      const Eigen::Vector3f across = extent.up.cross(closing);  // the fingers' width direction
+      float lo = std::numeric_limits<float>::max(), hi = -lo, top = -lo;
+      std::size_t in_slab = 0;
+      for (const Eigen::Vector3f& v : points)
+      {
+        const Eigen::Vector3f d = v - through;
+        const float z = std::abs(d.dot(across)), y = d.dot(closing);
+        if (z <= half_finger)
+        {
+          lo = std::min(lo, y);
+          hi = std::max(hi, y);
+          ++in_slab;
+        }
+        if (z <= half_palm_z && std::abs(y) <= half_palm_y)
+          top = std::max(top, extent.up.dot(v) + extent.table_offset);
+      }
+      const double width = static_cast<double>(hi - lo);
+      if (in_slab < 5 || width > gripper.max_opening_m - 0.005)
+        continue;
+      const float centre_height = top + static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f - 0.5f * finger_depth;
+      Eigen::Vector3f centre = through + (centre_height - centroid_height) * extent.up;
+      centre += 0.5f * (lo + hi) * closing;  // the closing line through the middle of what is between the fingers
+      Generated g;
+      g.source = "top_down";
+      g.grasp.pose = makeGraspPose(centre.cast<double>(), (-extent.up).cast<double>(), closing.cast<double>());
+      g.grasp.width_m = std::max(width, gripper.min_opening_m);
+      out.push_back(g);
+    }
   }
 }
 

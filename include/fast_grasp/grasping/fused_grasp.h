@@ -24,8 +24,9 @@ struct FusedParams
 {
   /// Pool the grasps of these planners (principal_axis, cshape, boundary, concavity).
   std::vector<std::string> planners{ "principal_axis", "cshape", "boundary", "concavity" };
-  /// Top-down candidates through the centroid, one per closing direction over 180 deg
-  /// (0 = none); the palm starts palm_clearance_m above the object's top.
+  /// Top-down candidates, one per closing direction over 180 deg, at the centroid and at +-1/4 of
+  /// the object's length along its major horizontal axis (0 = none); each closes on what lies
+  /// between the fingers, the palm palm_clearance_m above the highest point under it.
   std::size_t top_down_directions = 12;
   /// Side candidates at the centroid's height, approaching horizontally from the camera's side
   /// within +-side_spread_rad of the view direction (0 = none).
