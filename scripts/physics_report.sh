@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The physics evaluation the README quotes: every planner, the fused one and the baseline on the
-# held-out objects, Robotiq 2F-85 at friction 0.8 and 0.5, and the Lacquey Fetch and PR2 at 0.8.
+# held-out objects, Robotiq 2F-85 at friction 0.8 and 0.5, the Lacquey Fetch and PR2 at 0.8, and
+# the principal-axis planner following its next view (success within two views).
 # Writes bench_out/physics/<gripper>_mu<friction>/ (trials.csv, summary.txt, PNG charts) and
 # prints every summary's last lines. About 20 minutes on two cores.
 #   bash scripts/physics_report.sh [--split train|heldout] [extra evaluate_grasps_physics.py flags]
@@ -26,3 +27,10 @@ for run in robotiq_2f85:0.8 robotiq_2f85:0.5 lacquey_fetch:0.8 pr2:0.8; do
   echo "## ${gripper}, friction ${mu} (${dir}/summary.txt)"
   grep -E "^[a-z_]+ [a-z0-9_]+ (single|within)" "${dir}/summary.txt"
 done
+# The principal-axis planner following its own next view (Ch. 3.2.3): success within two views.
+dir="${out}/${split}_robotiq_2f85_mu0.8_next_view"
+"$PY" "${FAST_GRASP_SRC}/scripts/evaluate_grasps_physics.py" --gripper robotiq_2f85 --split "${split}" \
+    --planners principal_axis,fused --follow-next-view 1 --out-dir "${dir}" "$@" > "${dir}.log" 2>&1 || {
+  echo "next-view evaluation failed: ${dir}.log" >&2; exit 1; }
+echo "## robotiq_2f85, friction 0.8, following the principal-axis next view (${dir}/summary.txt)"
+grep -E "^[a-z_]+ [a-z0-9_]+ (single|within)" "${dir}/summary.txt"
