@@ -265,13 +265,14 @@ def summarise(rows, planners, gripper_name, split_label):
             continue
         returned = [x for x in r if x.get("status") == "ok"]
         success = sum(1 for x in returned if x.get("success"))
+        clean = sum(1 for x in returned if x.get("success") and not x.get("unexpected_contact"))
         contact = sum(1 for x in returned if x.get("unexpected_contact"))
         nograsp = n - len(returned)
         ms = sorted(float(x.get("planning_ms") or 0.0) for x in r)
         median_ms = ms[len(ms) // 2] if ms else float("nan")
         held_when_returned = 100.0 * success / len(returned) if returned else float("nan")
-        table.append((planner, n, 100.0 * success / n, 100.0 * contact / n, 100.0 * nograsp / n, held_when_returned,
-                      median_ms))
+        table.append((planner, n, 100.0 * success / n, 100.0 * clean / n, 100.0 * contact / n, 100.0 * nograsp / n,
+                      held_when_returned, median_ms))
         lines.append("%s %s %s: success %.0f %% contact %.0f %% nograsp %.0f %%"
                      % (planner, gripper_name, split_label, 100.0 * success / n, 100.0 * contact / n,
                         100.0 * nograsp / n))
@@ -348,16 +349,16 @@ def main(argv):
            "(%d poses wider than the opening skipped), %.0f s" % (gripper_lib.finger_reach_note(gripper), args.friction,
                                                                  args.split, len(objs), args.poses, args.views, skipped,
                                                                  time.time() - t0),
-           "| planner | trials | success % | unexpected contact % | no grasp % | held when returned % | median planning ms |",
-           "|---|---|---|---|---|---|---|"]
+           "| planner | trials | success % | clean success % | unexpected contact % | no grasp % | held when returned % | median planning ms |",
+           "|---|---|---|---|---|---|---|---|"]
     splits = ["train", "heldout"] if args.split == "all" else [args.split]
     final = []
     for split in splits:
         label = "single" if not args.follow_next_view else "within-%d-views" % (1 + args.follow_next_view)
         table, lines = summarise([r for r in rows if r.get("split") == split], planners, gripper["name"],
                                  label if split == "heldout" else label + "-" + split)
-        out.append("| **%s** | | | | | | |" % split)
-        out += ["| %s | %d | %.0f | %.0f | %.0f | %.0f | %.1f |" % t for t in table]
+        out.append("| **%s** | | | | | | | |" % split)
+        out += ["| %s | %d | %.0f | %.0f | %.0f | %.0f | %.0f | %.1f |" % t for t in table]
         final += lines
     with open(os.path.join(args.out_dir, "summary.txt"), "w") as f:
         f.write("\n".join(out + final) + "\n")
