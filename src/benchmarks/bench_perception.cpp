@@ -6,6 +6,7 @@
 // config/perception.yaml. For reference it also times pcl::fromROSMsg of each frame, the
 // conversion the in-place path avoids.
 //   rosrun fast_grasp bench_perception [bag ...]   (default: every bags/*.bag of the source tree)
+#include "bench_stats.h"
 #include "command_line.h"
 #include "fast_grasp/perception/cloud_preprocess.h"
 #include "fast_grasp/perception/normal_estimation.h"
@@ -28,14 +29,7 @@
 
 namespace
 {
-double median(std::vector<double> values)
-{
-  if (values.empty())
-    return 0.0;
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
+using fast_grasp::median;
 
 struct StageTimes
 {

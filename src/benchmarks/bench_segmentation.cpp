@@ -18,6 +18,7 @@
 //
 //   rosrun fast_grasp bench_segmentation [--data DIR] [--split S] [--min-points N] [--opening M] [--scenes a,b]
 // Last line: `segmentation: right P % (fits: Q %) merged M % split S % median X ms per frame`.
+#include "bench_stats.h"
 #include "command_line.h"
 #include "fast_grasp/perception/table_segmentation.h"
 
@@ -44,14 +45,7 @@ namespace
 {
 using LabelledCloud = pcl::PointCloud<pcl::PointXYZRGBL>;
 
-double median(std::vector<double> values)
-{
-  if (values.empty())
-    return 0.0;
-  std::sort(values.begin(), values.end());
-  const std::size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
+using fast_grasp::median;
 
 /// Least-squares normal of the table-labelled points, turned toward the camera (origin).
 Eigen::Vector3f tableUp(const LabelledCloud& cloud)

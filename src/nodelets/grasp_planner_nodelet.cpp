@@ -1,5 +1,8 @@
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
 
+#include <geometry_msgs/PoseStamped.h>
+#include <tf2_eigen/tf2_eigen.h>
+
 #include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
@@ -105,6 +108,7 @@ void GraspPlannerNodelet::onInit()
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_);
   grasps_pub_ = private_nh_.advertise<fast_grasp::GraspArray>("grasps", 5);
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  next_view_pub_ = private_nh_.advertise<geometry_msgs::PoseStamped>("next_view", 2, /*latch=*/true);
   scene_sub_ = nh_.subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
   cloud_sub_ = nh_.subscribe<InputCloud>("cloud_in", 2, &GraspPlannerNodelet::cloudCallback, this);
   NODELET_DEBUG("%s ready: gripper %s (max opening %.3f m)", planner_->name(), gripper_.name.c_str(),
@@ -197,7 +201,7 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
     publishMarkers(result, header);
-    publishExtras(result, header);
+    publishNextView(result, header);
     std::ostringstream summary;
     if (result.ok())
     {
@@ -215,6 +219,16 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
   {
     publishFailure(std::string("InternalError: ") + e.what());
   }
+}
+
+void GraspPlannerNodelet::publishNextView(const GraspResult& result, const std_msgs::Header& header)
+{
+  if (!result.next_view)
+    return;
+  geometry_msgs::PoseStamped pose;
+  pose.header = header;
+  pose.pose = tf2::toMsg(*result.next_view);
+  next_view_pub_.publish(pose);
 }
 
 void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_msgs::Header& header)

@@ -32,8 +32,6 @@ public:
 protected:
   /// Builds the algorithm from the private parameters (called once, in onInit).
   virtual std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) = 0;
-  /// Hook for algorithm-specific outputs (e.g. Ch3's next view).
-  virtual void publishExtras(const GraspResult& /*result*/, const std_msgs::Header& /*header*/) {}
   ros::NodeHandle& privateHandle() { return private_nh_; }
 
 private:
@@ -44,6 +42,8 @@ private:
   /// cloud's own sensor_origin_. Empty string on success, else why not.
   std::string lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins);
   void publishMarkers(const GraspResult& result, const std_msgs::Header& header);
+  /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
+  void publishNextView(const GraspResult& result, const std_msgs::Header& header);
 
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
@@ -51,6 +51,7 @@ private:
   ros::Subscriber scene_sub_;
   ros::Publisher grasps_pub_;
   ros::Publisher markers_pub_;
+  ros::Publisher next_view_pub_;
   NodeletStatus status_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
