@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <set>
 
 namespace fast_grasp
@@ -122,6 +124,26 @@ TEST(FusedGrasp, PoolsTheThesisPlannersWithTheirOwnParameters)
   EXPECT_GE(sources.size(), 2u) << result.message;
 }
 
+TEST(PlannerInput, AnObjectSpanningKilometresIsDegenerateForEveryPlanner)
+{
+  // Found by the random views below: principal_axis sized its sweep by the extent and threw
+  // std::bad_alloc on a cloud spanning 2000 km. Every planner now answers with a typed failure.
+  ObjectView view = boxView();
+  CloudNormal::Ptr far(new CloudNormal(*view.cloud));
+  PointNormal p = far->points.front();
+  p.x = 2.0e6f;
+  far->push_back(p);
+  view.cloud = far;
+  GraspPlannerConfig config;
+  for (const std::string& name : graspAlgorithmNames())
+  {
+    GraspResult result;
+    ASSERT_NO_THROW(result = makeGraspPlanner(name, config)->plan(view, synthetic::robotiqLikeGripper())) << name;
+    EXPECT_EQ(result.failure, GraspFailure::DegenerateInput) << name << ": " << result.message;
+    EXPECT_NE(result.message.find("span"), std::string::npos) << result.message;
+  }
+}
+
 TEST(FusedGrasp, BadInputAndBadModelAreTypedFailures)
 {
   const GripperModel gripper = synthetic::robotiqLikeGripper();
@@ -133,6 +155,78 @@ TEST(FusedGrasp, BadInputAndBadModelAreTypedFailures)
   bad.model.weights = { 1.0, 2.0 };  // not one per feature
   FusedGraspPlanner wrong({}, bad);
   EXPECT_EQ(wrong.plan(boxView(), gripper).failure, GraspFailure::InvalidParameters);
+}
+
+// Random views, seeded: clouds of 0-1500 points from blobs, lines, a single repeated point, huge
+// coordinates, with NaN / inf / denormal coordinates and normals sprinkled in, random or
+// non-finite sensor origins and table planes. Whatever comes in, plan() must return (no throw, no
+// crash), and every grasp it returns must be finite with a probability score.
+TEST(FusedGrasp, RandomAndBrokenViewsNeverCrashAndGiveFiniteGrasps)
+{
+  GraspPlannerConfig config;
+  const auto planner = makeGraspPlanner("fused", config);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  std::mt19937 rng(20261202);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const float weird[] = { nan, inf, -inf, 1e-40f, 1e30f, 0.0f };
+  int planned = 0;
+  for (int trial = 0; trial < 120; ++trial)
+  {
+    CloudNormal::Ptr cloud(new CloudNormal);
+    const int n = static_cast<int>(rng() % 1500);
+    const int shape = static_cast<int>(rng() % 5);
+    const Eigen::Vector3f centre(0.5f + 0.1f * unit(rng), 0.1f * unit(rng), 0.05f + 0.05f * unit(rng));
+    for (int i = 0; i < n; ++i)
+    {
+      PointNormal p;
+      Eigen::Vector3f q;
+      if (shape == 0)
+        q = centre + 0.04f * Eigen::Vector3f(unit(rng), unit(rng), unit(rng));
+      else if (shape == 1)
+        q = centre + 0.1f * unit(rng) * Eigen::Vector3f(1.0f, 0.3f, 0.0f);  // a line
+      else if (shape == 2)
+        q = centre;  // one point, repeated
+      else if (shape == 3)
+        q = 1e6f * Eigen::Vector3f(unit(rng), unit(rng), unit(rng));  // huge
+      else
+        q = centre + Eigen::Vector3f(0.05f * unit(rng), 0.05f * unit(rng), 0.0f);  // flat on the table
+      p.getVector3fMap() = q;
+      p.getNormalVector3fMap() = Eigen::Vector3f(unit(rng), unit(rng), unit(rng)).normalized();
+      if (rng() % 20 == 0)
+        p.x = weird[rng() % 6];
+      if (rng() % 20 == 0)
+        p.normal_z = weird[rng() % 6];
+      cloud->push_back(p);
+    }
+    ObjectView view;
+    view.cloud = cloud;
+    if (rng() % 4 != 0)
+      view.sensor_origins.push_back(centre + Eigen::Vector3f(-0.4f, 0.1f * unit(rng), 0.4f));
+    if (rng() % 6 == 0)
+      view.sensor_origins.push_back(Eigen::Vector3f(weird[rng() % 6], 0.0f, 0.5f));
+    view.has_table_plane = rng() % 3 != 0;
+    view.table_plane = rng() % 5 == 0 ? Eigen::Vector4f(weird[rng() % 6], 0.0f, 0.0f, 0.0f)
+                                      : Eigen::Vector4f(0.05f * unit(rng), 0.05f * unit(rng), 1.0f, 0.01f * unit(rng));
+    GraspResult result;
+    ASSERT_NO_THROW(result = planner->plan(view, gripper)) << "trial " << trial;
+    if (!result.ok())
+    {
+      EXPECT_NE(result.failure, GraspFailure::None) << "trial " << trial;
+      EXPECT_FALSE(result.message.empty()) << "trial " << trial;
+      continue;
+    }
+    ++planned;
+    for (const GraspCandidate& g : result.grasps)
+    {
+      EXPECT_TRUE(g.pose.matrix().allFinite()) << "trial " << trial << " " << g.algorithm;
+      EXPECT_GE(g.score, 0.0);
+      EXPECT_LE(g.score, 1.0);
+      for (const double f : g.features)
+        EXPECT_TRUE(std::isfinite(f)) << "trial " << trial << " " << g.algorithm;
+    }
+  }
+  EXPECT_GT(planned, 0);  // the blobs on a table do get grasps
 }
 
 TEST(FusedGrasp, YamlModelNamesFeatures)

@@ -1,6 +1,7 @@
 #include "fast_grasp/grasping/planner_input.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 namespace fast_grasp
@@ -18,8 +19,14 @@ std::optional<GraspResult> checkPlannerInput(const std::string& planner, const s
   if (!view.cloud)
     return GraspResult::fail(GraspFailure::EmptyInput, prefix + "null cloud");
   std::size_t finite = 0;
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
   for (const auto& point : view.cloud->points)
-    finite += std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z);
+    if (std::isfinite(point.x) && std::isfinite(point.y) && std::isfinite(point.z))
+    {
+      ++finite;
+      lo = lo.cwiseMin(point.getVector3fMap());
+      hi = hi.cwiseMax(point.getVector3fMap());
+    }
   if (finite == 0)
     return GraspResult::fail(GraspFailure::EmptyInput, prefix + "no finite point in the cloud");
   const std::size_t needed = std::max<std::size_t>(min_points, 3);
@@ -32,6 +39,12 @@ std::optional<GraspResult> checkPlannerInput(const std::string& planner, const s
   if (view.sensor_origins.empty() || !origins_finite)
     return GraspResult::fail(GraspFailure::DegenerateInput,
                              prefix + "no sensor origin, or one is not finite: the approach must come from the seen side");
+  const double extent = static_cast<double>((hi - lo).maxCoeff());
+  if (extent > kMaxObjectExtentM)
+    return GraspResult::fail(GraspFailure::DegenerateInput,
+                             prefix + "the points span " + std::to_string(extent) + " m (more than " +
+                                 std::to_string(static_cast<int>(kMaxObjectExtentM)) +
+                                 " m): not one object, or not in metres");
   return std::nullopt;
 }
 

@@ -19,8 +19,14 @@ namespace fast_grasp
 ///  - a null cloud or no finite point: EmptyInput;
 ///  - fewer than max(min_points, 3) finite points: DegenerateInput;
 ///  - no sensor origin, or a non-finite one: DegenerateInput (every planner approaches from
-///    the seen side).
+///    the seen side);
+///  - finite points spanning more than kMaxObjectExtentM along an axis: DegenerateInput (no
+///    hand grasps that: it is a segmentation failure or a unit error, and the planners' grids
+///    and sweeps, sized by the extent, would try to allocate for it).
 /// Messages start with "<planner>: ". compute_time_s is left to the caller.
+/// Larger than any graspable object by two orders of magnitude (grippers open < 0.3 m).
+constexpr double kMaxObjectExtentM = 10.0;
+
 std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
                                              const GripperModel& gripper, const ObjectView& view,
                                              std::size_t min_points);
