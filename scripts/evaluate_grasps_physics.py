@@ -117,14 +117,12 @@ def camera_for(rest_centre, rng):
     return eye, target
 
 
-def write_render_scene(folder, obj, rest_pos, rest_quat, eye, target, seed):
-    """Renderer scene (docs/renderer.md) of the settled object: its visual mesh in the rest
-    pose, as an STL the scene names with centre_on_base: false."""
-    import mujoco
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, np.asarray(rest_quat, float))
+def write_render_scene(folder, obj, rest_pos, turned_vertices, eye, target, seed):
+    """Renderer scene (docs/renderer.md) of the settled object: its visual mesh turned to the
+    rest orientation (turned_vertices), as an STL the scene names with centre_on_base: false at
+    the rest pose's x, y."""
     mesh = obj.visual.copy()
-    mesh.vertices = mesh.vertices @ rot.reshape(3, 3).T + np.array([0.0, 0.0, rest_pos[2]])
+    mesh.vertices = turned_vertices + np.array([0.0, 0.0, rest_pos[2]])
     mesh_path = os.path.join(folder, "object.stl")
     mesh.export(mesh_path)
     with open(os.path.join(folder, "scene.yaml"), "w") as f:
@@ -201,6 +199,8 @@ def evaluate_scene(job):
     mujoco.mju_mulQuat(q, qyaw, quat)
     xy = (0.5 + rng.uniform(-0.04, 0.04), rng.uniform(-0.06, 0.06))
     rest_pos, rest_quat = scene.settle(q, xy)
+    turned = trial_lib.rotated(obj.visual.vertices, rest_quat)
+    world = turned + rest_pos  # the settled mesh in base_link
     rows = []
     grasp_offline = find_grasp_offline(args.grasp_offline)
     planners = [p for p in args.planners.split(",") if p]
@@ -210,16 +210,12 @@ def evaluate_scene(job):
                     "gripper": gripper["name"], "friction": args.friction}
             centre = np.array([rest_pos[0], rest_pos[1], 0.0])
             # the rest-posed mesh tells whether any gripper could close on it (fits the opening)
-            import mujoco as mj
-            rot = np.zeros(9)
-            mj.mju_quat2Mat(rot, np.asarray(rest_quat))
-            world = obj.visual.vertices @ rot.reshape(3, 3).T + rest_pos
             centre[2] = 0.5 * (world[:, 2].max() + max(world[:, 2].min(), 0.0))
             if objects_lib.min_horizontal_width(world) > gripper["max_opening_m"] - 0.005:
                 rows.append(dict(base, planner="*", status="DoesNotFit", message="wider than the opening"))
                 continue
             eye, target = camera_for(centre, rng)
-            scene_yaml, _ = write_render_scene(folder, obj, rest_pos, rest_quat, eye, target, seed % 100000 + view)
+            scene_yaml, _ = write_render_scene(folder, obj, rest_pos, turned, eye, target, seed % 100000 + view)
             object_pcd = os.path.join(folder, "object.pcd")
             saved = False
             for planner in planners:

@@ -99,28 +99,7 @@ def _logistic_1d(s, y, iterations=50):
     return w[0], w[1]
 
 
-def fit_pointwise(x, y, l2=0.05, iterations=50):
-    """Logistic regression, bias unpenalised (kept for comparison: --pointwise)."""
-    mean, std = x.mean(axis=0), x.std(axis=0)
-    std[std < 1e-9] = 1.0
-    z = np.hstack([np.ones((len(x), 1)), (x - mean) / std])
-    w = np.zeros(z.shape[1])
-    penalty = np.full(z.shape[1], l2 * len(x))
-    penalty[0] = 0.0
-    for _ in range(iterations):
-        p = 1.0 / (1.0 + np.exp(-z @ w))
-        grad = z.T @ (p - y) + penalty * w
-        hess = (z * (p * (1 - p))[:, None]).T @ z + np.diag(penalty + 1e-9)
-        step = np.linalg.solve(hess, grad)
-        w -= step
-        if np.abs(step).max() < 1e-8:
-            break
-    weights = w[1:] / std
-    bias = w[0] - float(weights @ mean)
-    return bias, weights
-
-
-def top1(x, y, scene, bias, weights, order=None):
+def top1(x, y, scene, bias, weights):
     """Per scene: does the candidate the model ranks first hold? (ties keep the pool order)"""
     score = bias + x @ weights
     best = {}

@@ -37,6 +37,14 @@ class TrialParams:
             setattr(self, k, v)
 
 
+def rotated(vertices, quat_wxyz):
+    """vertices (N x 3) turned by the unit quaternion (w, x, y, z): the object frame's points
+    in a pose's orientation."""
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(quat_wxyz, float))
+    return vertices @ rot.reshape(3, 3).T
+
+
 def _f(*values):
     return " ".join("%.6g" % v for v in values)
 
@@ -135,9 +143,7 @@ class Scene:
         of its rest pose."""
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
-        rot = np.zeros(9)
-        mujoco.mju_quat2Mat(rot, np.asarray(quat_wxyz, float))
-        lowest = (self.obj.visual.vertices @ rot.reshape(3, 3).T)[:, 2].min()
+        lowest = rotated(self.obj.visual.vertices, quat_wxyz)[:, 2].min()
         d.qpos[self.obj_qadr:self.obj_qadr + 3] = [xy[0], xy[1], -lowest + 0.003]
         d.qpos[self.obj_qadr + 3:self.obj_qadr + 7] = quat_wxyz
         self._park_hand()
