@@ -216,6 +216,13 @@ TEST(GraspScene, TheTableIsABoxTopAtItsPlaneNotVoxelsAboveIt)
   ASSERT_TRUE(r.success) << reasons(r);
   EXPECT_TRUE(r.variant.empty()) << r.variant;
 
+  // Fingertips 6 mm above the table, the fused planner's gripper_fit/table_clearance_m for its
+  // own candidates (config/grasp_planners.yaml): 1 mm beyond the links' padding still plans.
+  GraspCandidate lowest = low;
+  lowest.pose.translation().z() = 0.045 + 0.006;
+  const GraspPlanResult at_clearance = planGraspMotion(s.collision, home(), { lowest }, s.params);
+  EXPECT_TRUE(at_clearance.success) << reasons(at_clearance);
+
   // The table still blocks: fingertips 5 mm into it.
   GraspCandidate into = low;
   into.pose.translation().z() = 0.045 - 0.005;

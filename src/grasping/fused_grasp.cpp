@@ -2,8 +2,6 @@
 
 #include "fast_grasp/grasping/planner_input.h"
 
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -29,12 +27,20 @@ std::pair<float, float> extentAlong(const CloudNormal& cloud, const Eigen::Vecto
   return { lo, hi };
 }
 
-/// Two unit vectors spanning the plane perpendicular to `up`.
-std::pair<Eigen::Vector3f, Eigen::Vector3f> planeBasis(const Eigen::Vector3f& up)
+/// `view` with every k-th point of its cloud, so that at most `max_points` remain (0 = all).
+ObjectView thinned(const ObjectView& view, std::size_t max_points)
 {
-  const Eigen::Vector3f seed = std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
-  const Eigen::Vector3f e1 = (seed - seed.dot(up) * up).normalized();
-  return { e1, up.cross(e1) };
+  if (max_points == 0 || view.cloud->size() <= max_points)
+    return view;
+  const std::size_t stride = (view.cloud->size() + max_points - 1) / max_points;
+  CloudNormal::Ptr cloud(new CloudNormal);
+  cloud->reserve(view.cloud->size() / stride + 1);
+  for (std::size_t i = 0; i < view.cloud->size(); i += stride)
+    cloud->push_back(view.cloud->points[i]);
+  cloud->header = view.cloud->header;
+  ObjectView out = view;
+  out.cloud = cloud;
+  return out;
 }
 
 struct Generated
@@ -52,30 +58,22 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
 {
   if (p.top_down_directions == 0)
     return;
-  const auto [e1, e2] = planeBasis(extent.up);
+  const auto [e1, e2] = tablePlaneBasis(extent.up);
   const float finger_depth = static_cast<float>(gripper.finger_depth_m);
   const float half_finger = 0.5f * static_cast<float>(gripper.finger_width_m) + 0.005f;
   const float half_palm_z = 0.5f * static_cast<float>(gripper.palmWidth());
   const float half_palm_y = 0.5f * static_cast<float>(gripper.max_opening_m) + static_cast<float>(gripper.finger_thickness_m);
-  // Major horizontal axis of the points (2-D PCA in the table plane).
-  Eigen::Matrix2f cov = Eigen::Matrix2f::Zero();
   std::vector<Eigen::Vector3f> points;
   points.reserve(view.cloud->size());
   for (const auto& q : view.cloud->points)
   {
     const Eigen::Vector3f v = q.getVector3fMap();
-    if (!v.allFinite())
-      continue;
-    points.push_back(v);
-    const Eigen::Vector2f d((v - extent.centroid).dot(e1), (v - extent.centroid).dot(e2));
-    cov += d * d.transpose();
+    if (v.allFinite())
+      points.push_back(v);
   }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> pca(cov);
-  const Eigen::Vector2f major2 = pca.eigenvectors().col(1);
-  const Eigen::Vector3f major = major2.x() * e1 + major2.y() * e2;
-  const auto [major_lo, major_hi] = extentAlong(*view.cloud, major);
-  const float length = major_hi - major_lo;
-  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
+  const Eigen::Vector3f& major = extent.major_axis;
+  const float length = extent.length_m;
+  const float centroid_height = extent.centroid_height_m();
   for (const float offset : { 0.0f, -0.25f, 0.25f })
   {
     const Eigen::Vector3f through = extent.centroid + offset * length * major;
@@ -125,7 +123,7 @@ void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const Gr
   if (look.norm() < 1e-3f)
     return;  // camera straight above: no side to come from
   look.normalize();
-  const float centroid_height = extent.up.dot(extent.centroid) + extent.table_offset;
+  const float centroid_height = extent.centroid_height_m();
   const float lowest_centre = 0.5f * static_cast<float>(gripper.palmWidth()) +
                               static_cast<float>(p.gripper_fit.table_clearance_m) + 0.002f;
   const float centre_height = std::max(centroid_height, lowest_centre);
@@ -174,14 +172,15 @@ FusedGraspPlanner::FusedGraspPlanner(std::vector<std::unique_ptr<GraspPlanner>> 
 {
 }
 
-GraspResult FusedGraspPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
+GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperModel& gripper) const
 {
   const Stopwatch watch;
-  if (auto bad = checkPlannerInput(name(), params_.validate(), gripper, view, 10))
+  if (auto bad = checkPlannerInput(name(), params_.validate(), gripper, full_view, 10))
   {
     bad->compute_time_s = watch.elapsedSeconds();
     return *bad;
   }
+  const ObjectView view = thinned(full_view, params_.max_pooled_points);
   const ObjectExtent extent = objectExtent(view);
   std::vector<Generated> pool;
   std::ostringstream summary;

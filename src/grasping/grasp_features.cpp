@@ -1,5 +1,9 @@
 #include "fast_grasp/grasping/grasp_features.h"
 
+#include "fast_grasp/grasping/gripper_volume.h"
+
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -54,7 +58,44 @@ ObjectExtent objectExtent(const ObjectView& view)
   }
   e.height_m = std::max(top, 1e-3f);
   e.max_extent_m = std::max((hi - lo).maxCoeff(), 1e-3f);
+
+  // Footprint: 2-D PCA of the points in the table plane.
+  const auto [e1, e2] = tablePlaneBasis(e.up);
+  Eigen::Matrix2f cov = Eigen::Matrix2f::Zero();
+  for (const auto& p : view.cloud->points)
+  {
+    const Eigen::Vector3f d = p.getVector3fMap() - e.centroid;
+    if (!d.allFinite())
+      continue;
+    const Eigen::Vector2f in_plane(d.dot(e1), d.dot(e2));
+    cov += in_plane * in_plane.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> pca(cov);
+  const Eigen::Vector2f major2 = pca.eigenvectors().col(1);
+  e.major_axis = major2.x() * e1 + major2.y() * e2;
+  const Eigen::Vector3f minor_axis = e.up.cross(e.major_axis);
+  float major_lo = std::numeric_limits<float>::max(), major_hi = -major_lo;
+  float minor_lo = major_lo, minor_hi = major_hi;
+  for (const auto& p : view.cloud->points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    major_lo = std::min(major_lo, e.major_axis.dot(q));
+    major_hi = std::max(major_hi, e.major_axis.dot(q));
+    minor_lo = std::min(minor_lo, minor_axis.dot(q));
+    minor_hi = std::max(minor_hi, minor_axis.dot(q));
+  }
+  e.length_m = major_hi - major_lo;
+  e.breadth_m = minor_hi - minor_lo;
   return e;
+}
+
+std::pair<Eigen::Vector3f, Eigen::Vector3f> tablePlaneBasis(const Eigen::Vector3f& up)
+{
+  const Eigen::Vector3f seed = std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+  const Eigen::Vector3f e1 = (seed - seed.dot(up) * up).normalized();
+  return { e1, up.cross(e1) };
 }
 
 const std::vector<std::string>& graspFeatureSources()
@@ -73,7 +114,7 @@ const std::vector<std::string>& graspFeatureNames()
     for (const char* f : { "contact_height_frac", "contact_height_frac_sq", "centroid_arm_frac", "approach_down",
                            "width_frac", "grip_depth_frac", "points_between_log", "table_clearance_frac",
                            "object_height_frac", "contact_facing", "contact_facing_up", "cone_margin_rad",
-                           "neighbour_support" })
+                           "centroid_arm_m", "weight_torque", "neighbour_support" })
       n.emplace_back(f);
     return n;
   }();
@@ -133,15 +174,16 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   f[k++] = between > 0 ? clampf((y_max - y_min) / opening, 0.0f, 1.0f) : 0.0;
   f[k++] = between > 0 ? clampf((x_max - x_min) / finger_depth, 0.0f, 1.0f) : 0.0;
   f[k++] = std::log1p(static_cast<double>(between)) / std::log(1000.0);
-  // Lowest corner of the open hand above the table, over the finger depth.
+  // Lowest corner of the open hand (the boxes the gripper-volume check fits) above the table,
+  // over the finger depth.
   float lowest = std::numeric_limits<float>::max();
-  const float half_y = 0.5f * opening + static_cast<float>(gripper.finger_thickness_m);
-  for (int corner = 0; corner < 8; ++corner)
-  {
-    const Eigen::Vector3f q((corner & 1) ? 0.5f * finger_depth : -0.5f * finger_depth - static_cast<float>(gripper.palm_thickness_m),
-                            (corner & 2) ? half_y : -half_y, (corner & 4) ? 0.5f * finger_width : -0.5f * finger_width);
-    lowest = std::min(lowest, extent.up.dot(origin + rotation * q) + extent.table_offset);
-  }
+  for (const GripperBox& box : openGripperBoxes(gripper, gripper.max_opening_m))
+    for (int corner = 0; corner < 8; ++corner)
+    {
+      const Eigen::Vector3f q((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
+                              (corner & 4) ? box.max.z() : box.min.z());
+      lowest = std::min(lowest, extent.up.dot(origin + rotation * q) + extent.table_offset);
+    }
   f[k++] = clampf(lowest / finger_depth, -1.0f, 2.0f);
   f[k++] = clampf(extent.height_m / opening, 0.0f, 4.0f);
   // Contacts: points within 1 cm of each side's outermost point. facing = mean |n . closing|
@@ -179,6 +221,13 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
     margin = std::min(margin, std::atan(0.8) - std::acos(static_cast<double>(cosine)));
   }
   f[k++] = between > 0 ? margin : -1.0;
+  // The object's weight turning it about the closing line: the lever in units of 5 cm, and
+  // lever x the footprint box's volume in litres (~kg at water's density), what the fingers'
+  // friction must resist when the object is lifted and shaken.
+  const double arm_m = static_cast<double>(arm);
+  const double volume_l = 1000.0 * static_cast<double>(extent.length_m) * extent.breadth_m * extent.height_m;
+  f[k++] = std::min(arm_m / 0.05, 4.0);
+  f[k++] = std::min(arm_m / 0.05 * volume_l, 8.0);
   f[k++] = 0.0;  // neighbour_support: filled in by the fused planner, which sees the whole pool
   return f;
 }

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fast_grasp
@@ -24,9 +25,19 @@ struct ObjectExtent
   float max_extent_m = 0.0f;  // largest side of the axis-aligned bounding box
   Eigen::Vector3f up = Eigen::Vector3f::UnitZ();  // away from the table (against gravity)
   float table_offset = 0.0f;  // height above table = up . p + table_offset
+  /// Footprint on the table: the seen points' major horizontal axis (2-D PCA in the table
+  /// plane), their extent along it and across it. With the height, the footprint's box stands
+  /// in for the object's weight (the unseen back is missing: a lower bound).
+  Eigen::Vector3f major_axis = Eigen::Vector3f::UnitX();
+  float length_m = 0.0f;
+  float breadth_m = 0.0f;
+  float centroid_height_m() const { return up.dot(centroid) + table_offset; }
 };
 
 ObjectExtent objectExtent(const ObjectView& view);
+
+/// Two unit vectors spanning the plane perpendicular to `up` (the table plane's axes).
+std::pair<Eigen::Vector3f, Eigen::Vector3f> tablePlaneBasis(const Eigen::Vector3f& up);
 
 /// Feature names, in the order graspFeatures() returns them and the model's weights use.
 /// The first ones are one-hot sources: from_<planner> for the candidate's planner.
