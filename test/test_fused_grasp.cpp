@@ -67,6 +67,50 @@ TEST(GraspFeatures, TopDownGraspAcrossTheBoxReadsAsItsGeometry)
   EXPECT_NEAR(f[featureIndex("cone_margin_rad")], std::atan(0.8), 0.1);
 }
 
+TEST(GraspFeatures, FootprintAndWeightTorqueOfTheBox)
+{
+  const ObjectView view = boxView();
+  const ObjectExtent extent = objectExtent(view);
+  // The camera looks along +x: it sees the whole 6 cm along y and the top's full 4 cm along x.
+  EXPECT_NEAR(std::abs(extent.major_axis.y()), 1.0, 1e-3);
+  EXPECT_NEAR(extent.length_m, 0.06, 0.004);
+  EXPECT_NEAR(extent.breadth_m, 0.04, 0.004);
+  // A top-down grasp closing along x, 2 cm beside the centroid along y: the lever is 2 cm
+  // (0.4 in units of 5 cm) times the 4 x 6 x 8 cm box's 0.192 l.
+  GraspCandidate grasp;
+  grasp.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.02, 0.06), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  const auto f = graspFeatures(grasp, "top_down", view, extent, synthetic::robotiqLikeGripper());
+  const double arm = std::hypot(extent.centroid.y() - 0.02, extent.centroid.z() - 0.06) / 0.05;
+  EXPECT_NEAR(f[featureIndex("centroid_arm_m")], arm, 1e-3);
+  EXPECT_NEAR(f[featureIndex("weight_torque")], arm * 0.192, 0.03);
+}
+
+TEST(FusedGrasp, DenseViewsAreThinnedToMaxPooledPoints)
+{
+  // The box seen at 1 mm spacing: ~10k points. Capped at 1000, the points between the fingers
+  // of every candidate come from at most 1000 points; uncapped, from many more.
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.43);
+  auto cloud = synthetic::renderView(synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.06, 0.08 }),
+                                     { camera, 0.001, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  ASSERT_GT(view.cloud->size(), 5000u);
+  const auto most_between = [&](std::size_t cap) {
+    FusedParams p = onlyGenerated();
+    p.max_pooled_points = cap;
+    p.max_grasps = 100;
+    const GraspResult result = FusedGraspPlanner({}, p).plan(view, synthetic::robotiqLikeGripper());
+    EXPECT_TRUE(result.ok()) << result.message;
+    double most = 0.0;
+    for (const GraspCandidate& g : result.grasps)
+      most = std::max(most, std::expm1(g.features[featureIndex("points_between_log")] * std::log(1000.0)));
+    return most;
+  };
+  EXPECT_LE(most_between(1000), 1000.5);
+  EXPECT_GT(most_between(0), 1500.0);
+}
+
 TEST(FusedGrasp, GeneratedCandidatesCloseAcrossTheNarrowSideAndStayOffTheTable)
 {
   const ObjectView view = boxView();
