@@ -1,5 +1,6 @@
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 #include "fast_grasp/grasping/planner_input.h"
+#include "fast_grasp/grasping/principal_axis_next_view.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
 
@@ -437,67 +438,31 @@ double rankPenalty(double primary, double secondary, double y_m, double half_len
   return primary + 0.1 * secondary_term + 0.01 * std::abs(y_m) / std::max(half_length_m, 1e-6);
 }
 
-/// Look-at pose of a camera at `sensor` (REP 103 optical axes: z forward, y down).
-Eigen::Isometry3d lookAtPose(const Eigen::Vector3d& sensor, const Eigen::Vector3d& target,
-                             const Eigen::Vector3d& gravity)
+/// Object-frame (x, z) of the points in `candidate`'s finger band (its grid rows): the best
+/// grasping area whose main plane the XOZ-failure next view turns to (Ch3.2.3).
+std::vector<Eigen::Vector2d> fingerBandXz(const std::vector<Eigen::Vector3f>& object_points,
+                                          const ProjectionGrid& grid, const Candidate& candidate)
 {
-  const Eigen::Vector3d z = (target - sensor).normalized();
-  Eigen::Vector3d y = gravity - gravity.dot(z) * z;
-  if (y.squaredNorm() < 1e-12)
-    y = z.unitOrthogonal();
-  y.normalize();
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear().col(0) = y.cross(z);
-  pose.linear().col(1) = y;
-  pose.linear().col(2) = z;
-  pose.translation() = sensor;
-  return pose;
-}
-
-/// The main plane of Ch3.2.3 as seen in the XOZ plane: the total-least-squares line through
-/// an area's (x, z) points, the area's width along it and the RMS distance of the points from
-/// it (small for a flat face, about 0.15 of the width for a seen half cylinder or sphere).
-struct MainPlane
-{
-  Eigen::Vector2d trace = Eigen::Vector2d::UnitX();
-  double width_m = 0.0;
-  double rms_m = 0.0;
-};
-
-MainPlane fitMainPlane(const std::vector<Eigen::Vector2d>& area_xz)
-{
-  MainPlane plane;
-  if (area_xz.size() < 2)
-    return plane;
-  plane.trace = fitLineDirection(area_xz).normalized();
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const auto& q : area_xz)
-    mean += q;
-  mean /= static_cast<double>(area_xz.size());
-  const Eigen::Vector2d normal(-plane.trace.y(), plane.trace.x());
-  double low = std::numeric_limits<double>::infinity(), high = -low, squares = 0.0;
-  for (const auto& q : area_xz)
+  std::vector<Eigen::Vector2d> band_xz;
+  for (const Eigen::Vector3f& q : object_points)
   {
-    low = std::min(low, q.dot(plane.trace));
-    high = std::max(high, q.dot(plane.trace));
-    squares += std::pow((q - mean).dot(normal), 2);
+    const int r = grid.rowOf(q.y());
+    if (r >= candidate.first_row && r <= candidate.last_row)
+      band_xz.emplace_back(q.x(), q.z());
   }
-  plane.width_m = high - low;
-  plane.rms_m = std::sqrt(squares / static_cast<double>(area_xz.size()));
-  return plane;
+  return band_xz;
 }
 
-/// Eq. 3.6: the sensor's look-at pose turned by `phi` about the principal axis through the
-/// centroid. In the object frame a positive phi turns the line of sight Z toward X.
-Eigen::Isometry3d viewTurnedAboutAxis(const Eigen::Vector3f& sensor, const Eigen::Vector3f& centroid,
-                                      const Eigen::Vector3f& axis, const Eigen::Vector3f& gravity, double phi)
+/// Object-frame (x, z) of the points at least `end_clearance_m` from both ends along the
+/// principal axis: the seen face without the caps, where the contour turns.
+std::vector<Eigen::Vector2d> clearOfEndsXz(const std::vector<Eigen::Vector3f>& object_points,
+                                           const ProjectionGrid& grid, double end_clearance_m)
 {
-  const Eigen::Vector3d centre = centroid.cast<double>();
-  const Eigen::Isometry3d current = lookAtPose(sensor.cast<double>(), centre, gravity.cast<double>());
-  Eigen::Isometry3d about_axis = Eigen::Isometry3d::Identity();
-  about_axis.linear() = Eigen::AngleAxisd(phi, axis.cast<double>().normalized()).toRotationMatrix();
-  about_axis.translation() = centre - about_axis.linear() * centre;
-  return about_axis * current;
+  std::vector<Eigen::Vector2d> face_xz;
+  for (const Eigen::Vector3f& q : object_points)
+    if (q.y() >= grid.y_min + end_clearance_m && q.y() <= grid.y_max - end_clearance_m)
+      face_xz.emplace_back(q.x(), q.z());
+  return face_xz;
 }
 
 std::string formatNumber(double value)
@@ -676,23 +641,19 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     }
     sortGraspsBestFirst(result.grasps);
     sortGraspsBestFirst(result.candidates);
+    // Where a next view is suggested, the camera turns about the principal axis
+    // (principal_axis_next_view.h).
+    const CameraAboutAxis camera{ view.sensor_origins.front(), pca.centroid, axis, view.gravity };
     if (std::optional<GraspResult> no_fit = fitGripper("principal_axis"))
     {
-      // Stable grasps the table alone rules out (a low object seen from the side: the hand
-      // approaching along the line of sight closes on a tilted line whose lower finger meets
-      // the table). Beyond the thesis, which moves the camera only for step 7: the same
-      // rotation of Eq. 3.6 about the principal axis, as far as it brings the line of sight
-      // to vertical, lets the next plan approach from above and close level with the table.
+      // Stable grasps the table alone rules out: the next plan may approach from above.
       if (table_blocked > 0 && p.next_view_from_above)
       {
-        const Eigen::Vector3f up_across = up - up.dot(frame.y) * frame.y;
-        const double phi = std::atan2(up_across.dot(frame.x), up_across.dot(frame.z));
-        if (up_across.norm() > std::sin(p.min_axis_view_angle_rad) && std::abs(phi) >= p.next_view_min_turn_rad)
+        if (std::optional<NextView> above = nextViewFromAbove(up, frame.x, frame.z, p.min_axis_view_angle_rad,
+                                                              p.next_view_min_turn_rad, camera))
         {
-          no_fit->next_view =
-              viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
-          no_fit->message += "; " + std::to_string(table_blocked) + " were stopped by the table: next view from above, "
-                             "rotated by " + formatNumber(std::abs(phi)) + " rad about the principal axis";
+          no_fit->next_view = above->camera_pose;
+          no_fit->message += "; " + std::to_string(table_blocked) + " were stopped by the table: " + above->reason;
         }
       }
       no_fit->hull = std::move(result.hull);
@@ -726,26 +687,14 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
                        " m opening (median width " + formatNumber(median) + " m, narrowest " +
                        formatNumber(evaluation.narrowest_width_m) + " m) and no finger band of " +
                        formatNumber(gripper.finger_width_m) + " m lies within them clear of the ends";
-      // Thesis risk 2 (the gripper cannot cover the object). When what the camera sees is one
-      // flat face wider than the opening, Fig. 3.11 (b)'s rule still applies: looking along
-      // the face (beta = alpha) shows the object's thickness instead. Curved objects (a
-      // sphere, a wide can) look as wide from every side, so they get no suggestion.
-      std::vector<Eigen::Vector2d> face_xz;
-      for (const Eigen::Vector3f& q : scratch)
-        if (q.y() >= evaluation.grid.y_min + p.end_clearance_m && q.y() <= evaluation.grid.y_max - p.end_clearance_m)
-          face_xz.emplace_back(q.x(), q.z());
-      const MainPlane face = fitMainPlane(face_xz);
-      if (face.width_m > gripper.max_opening_m && face.rms_m < p.next_view_max_face_rms_ratio * face.width_m)
+      // Thesis risk 2 (the gripper cannot cover the object): a seen flat face wider than the
+      // opening is looked along next.
+      if (std::optional<NextView> along_face =
+              nextViewAlongWideFlatFace(clearOfEndsXz(scratch, evaluation.grid, p.end_clearance_m),
+                                        gripper.max_opening_m, p.next_view_max_face_rms_ratio, camera))
       {
-        Eigen::Vector2d target = face.trace;  // (x, z): look along the face
-        if (target.y() < 0.0)
-          target = -target;
-        const double phi = std::atan2(target.x(), target.y());
-        result.next_view = viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
-        result.message += "; the seen face (" + formatNumber(face.width_m) + " m wide, " +
-                          formatNumber(face.rms_m * 1000.0) + " mm RMS off flat) is wider than the opening: next view "
-                          "along it, rotated by beta = alpha " + formatNumber(std::abs(phi)) +
-                          " rad about the principal axis";
+        result.next_view = along_face->camera_pose;
+        result.message += "; " + along_face->reason;
       }
       return finish(std::move(result));
     }
@@ -759,46 +708,13 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
                        " rad > " + formatNumber(p.force_balance_max_rad) + " rad)";
       return finish(std::move(result));
     }
-    // Ch3.2.3: every XOY-stable candidate fails XOZ, the case a new viewpoint resolves.
-    // Main plane: the plane through the principal axis along which the best grasping area
-    // extends (its trace in XOZ is the area's total-least-squares line).
-    std::vector<Eigen::Vector2d> area_xz;
-    for (std::size_t i = 0; i < points.size(); ++i)
-    {
-      const Eigen::Vector3f& q = scratch[i];
-      const int r = evaluation.grid.rowOf(q.y());
-      if (r >= best_xoy->first_row && r <= best_xoy->last_row)
-        area_xz.emplace_back(q.x(), q.z());
-    }
-    const MainPlane main_plane = fitMainPlane(area_xz);
-    const Eigen::Vector2d& trace = main_plane.trace;
-    const double main_plane_width_m = main_plane.width_m;
-    const Eigen::Vector2d sight(0.0, 1.0);  // object Z in (x, z)
-    // alpha: angle between the line of sight and the main plane.
-    const double alpha = std::acos(std::min(1.0, std::abs(trace.dot(sight))));
-    Eigen::Vector2d target;
-    double beta = 0.0;
-    if (main_plane_width_m < gripper.max_opening_m)
-    {
-      // Look perpendicular to the main plane: the gripper can close across its width.
-      target = Eigen::Vector2d(-trace.y(), trace.x());
-      beta = M_PI / 2.0 - alpha;
-    }
-    else
-    {
-      // Look along the main plane (tangent): close across its thickness instead.
-      target = trace;
-      beta = alpha;
-    }
-    if (target.dot(sight) < 0.0)
-      target = -target;
-    // Rotating about Y by phi maps Z to cos(phi) Z + sin(phi) X; |phi| = beta by construction.
-    const double phi = std::atan2(target.x(), target.y());
-    result.next_view = viewTurnedAboutAxis(view.sensor_origins.front(), pca.centroid, axis, view.gravity, phi);
+    // Ch3.2.3: every XOY-stable candidate fails XOZ, the case a new viewpoint resolves: the
+    // camera turns to the main plane of the best XOY candidate's finger band.
+    const NextView toward_main_plane =
+        nextViewForXozFailure(fingerBandXz(scratch, evaluation.grid, *best_xoy), gripper.max_opening_m, camera);
+    result.next_view = toward_main_plane.camera_pose;
     result.message = "principal_axis: XOZ offset above " + formatNumber(p.xoz_max_offset_m) +
-                     " m for every XOY-stable candidate; next view rotated by beta " + formatNumber(beta) +
-                     " rad about the principal axis (alpha " + formatNumber(alpha) + " rad, main plane " +
-                     formatNumber(main_plane_width_m) + " m)";
+                     " m for every XOY-stable candidate; " + toward_main_plane.reason;
     return finish(std::move(result));
   }
 

@@ -1,5 +1,6 @@
 // Principal-axis grasp planner of thesis Chapter 3: single view (Ch3.2, steps 1-7 and the
-// next-viewpoint rule of Ch3.2.3) and two cameras with virtual viewpoints (Ch3.5).
+// next-viewpoint rule of Ch3.2.3) and two cameras with virtual viewpoints (Ch3.5). The next
+// view's rotations about the principal axis (Eq. 3.6) live in principal_axis_next_view.h.
 // ROS-free: C++17, Eigen, PCL point types.
 #pragma once
 
@@ -116,7 +117,7 @@ std::vector<Eigen::Vector3f> virtualViewpoints(const Eigen::Vector3f& centroid, 
 /// principal axis (Eq. 3.6), is set when another view can resolve the failure: all XOY-stable
 /// candidates fail XOZ (beta of Ch3.2.3); no graspable zone because the seen flat face is
 /// wider than the opening (look along it, beta = alpha); the table stops the hand at every
-/// stable grasp (look from above).
+/// stable grasp (look from above). principal_axis_next_view.h computes each of these views.
 /// Two cameras: the best XOY candidate of each virtual viewpoint, ranked by XOZ offset
 /// (Eqs. 3.9-3.10); `candidates` holds one entry per virtual viewpoint that had one.
 /// plan() is const and thread-safe.
