@@ -29,16 +29,17 @@ CONFIG = os.path.join(ROOT, "config/grasp_planners.yaml")
 
 def load(paths):
     rows = []
-    for path in paths:
+    for run, path in enumerate(paths):
         with open(path) as f:
-            rows += [r for r in csv.DictReader(f) if r.get("planner") == "fused" and r.get("status") == "ok"
-                     and r.get("unstable") != "True"]
+            rows += [dict(r, run=run) for r in csv.DictReader(f) if r.get("planner") == "fused"
+                     and r.get("status") == "ok" and r.get("unstable") != "True"]
     if not rows:
         sys.exit("no fused candidate trials in %s" % ", ".join(paths))
-    names = sorted(k[2:] for k in rows[0] if k.startswith("f_"))
-    x = np.array([[float(r["f_" + n] or 0.0) for n in names] for r in rows])
+    names = sorted({k[2:] for r in rows for k in r if k.startswith("f_")})
+    x = np.array([[float(r.get("f_" + n) or 0.0) for n in names] for r in rows])
     y = np.array([1.0 if r["success"] == "True" and r["unexpected_contact"] != "True" else 0.0 for r in rows])
-    scene = ["%s/%s/%s/%s" % (r["object"], r["pose"], r["view"], r["gripper"]) for r in rows]
+    # a scene is one view of one run: the same pose in two runs (other candidates) is two scenes
+    scene = ["%s/%s/%s/%s/%s" % (r["run"], r["object"], r["pose"], r["view"], r["gripper"]) for r in rows]
     objects = [r["object"] for r in rows]
     return names, x, y, scene, objects
 
@@ -86,76 +87,6 @@ def fit(x, y, scene, l2=0.001, iterations=2000):
     return bias, weights
 
 
-def scene_groups(scene):
-    groups = {}
-    for i, s in enumerate(scene):
-        groups.setdefault(s, []).append(i)
-    return groups
-
-
-def listwise_gradient(score, y, informative):
-    """Gradient of the per-scene softmax loss (-log P(pick a candidate that held)) by score."""
-    grad = np.zeros_like(score)
-    for g in informative:
-        s = score[g]
-        e = np.exp(s - s.max())
-        good = y[g] > 0.5
-        grad[g] = e / e.sum() - e * good / (e * good).sum()
-    return grad
-
-
-def fit_trees(x, y, scene, bias, weights, rounds=60, depth=3, rate=0.3, min_leaf=40):
-    """Boosted regression trees on top of the linear ranking (LambdaMART-like): each round
-    fits a small tree to the negative listwise gradient of the current score and adds it
-    (shrunk by `rate`). Returns the trees as dicts of flat node arrays (grasp_features.h)
-    and the calibrated (bias, weights scale, trees scale) such that sigmoid(bias + w.x + sum
-    trees) is a success probability."""
-    from sklearn.tree import DecisionTreeRegressor
-    groups = scene_groups(scene)
-    informative = [np.array(g) for g in groups.values() if 0 < y[g].sum() < len(g)]
-    linear = x @ weights
-    score = linear.copy()
-    trees = []
-    for _ in range(rounds):
-        grad = listwise_gradient(score, y, informative)
-        tree = DecisionTreeRegressor(max_depth=depth, min_samples_leaf=min_leaf, random_state=0)
-        tree.fit(x, -grad * len(y) / max(1, len(informative)))
-        t = tree.tree_
-        values = rate * t.value[:, 0, 0]
-        trees.append({"feature": t.feature.tolist(), "threshold": t.threshold.tolist(),
-                      "left": t.children_left.tolist(), "right": t.children_right.tolist(), "value": values.tolist()})
-        score += tree_output(trees[-1], x)
-    # calibration as for the linear model: slope from per-scene centred scores, offset from the rate
-    centred = score.copy()
-    for g in groups.values():
-        centred[g] -= score[g].mean()
-    a, _ = _logistic_1d(centred, y)
-    a = min(max(a, 1e-3), 2.0 / max(float(score.std()), 1e-9))
-    r = min(max(y.mean(), 1e-3), 1.0 - 1e-3)
-    b = float(np.log(r / (1.0 - r))) - a * float(score.mean())
-    for tr in trees:
-        tr["value"] = [a * v for v in tr["value"]]
-    return b + a * bias, a * weights, trees
-
-
-def tree_output(tree, x):
-    """A tree's value for each row of x (node arrays as written to the YAML)."""
-    out = np.zeros(len(x))
-    for i, row in enumerate(x):
-        node = 0
-        while tree["left"][node] >= 0:
-            node = tree["left"][node] if row[tree["feature"][node]] <= tree["threshold"][node] else tree["right"][node]
-        out[i] = tree["value"][node]
-    return out
-
-
-def model_score(x, bias, weights, trees):
-    score = bias + x @ weights
-    for t in trees:
-        score += tree_output(t, x)
-    return score
-
-
 def _logistic_1d(s, y, iterations=50):
     """(a, b) of p = sigmoid(a s + b) by Newton steps."""
     z = np.stack([s, np.ones_like(s)], axis=1)
@@ -169,9 +100,9 @@ def _logistic_1d(s, y, iterations=50):
     return w[0], w[1]
 
 
-def top1(x, y, scene, bias, weights, trees=()):
+def top1(x, y, scene, bias, weights):
     """Per scene: does the candidate the model ranks first hold? (ties keep the pool order)"""
-    score = model_score(x, bias, weights, trees)
+    score = bias + x @ weights
     best = {}
     for i, s in enumerate(scene):
         if s not in best or score[i] > score[best[s]] + 1e-12:
@@ -186,24 +117,12 @@ def ceiling(y, scene):
     return np.mean(list(held.values()))
 
 
-def write_block(names, bias, weights, trees, provenance):
+def write_block(names, bias, weights, provenance):
     with open(CONFIG) as f:
         text = f.read()
     lines = ["  # BEGIN fitted model (scripts/fit_fused_model.py)", "  model:",
              '    fitted_on: "%s"' % provenance, "    bias: %.6g" % bias, "    weights:"]
     lines += ["      %s: %.6g" % (n, w) for n, w in zip(names, weights)]
-    if trees:
-        # one tree per entry: flat node arrays; an inner node sends f[feature] <= threshold left
-        lines.append("    trees:")
-        for t in trees:
-            inner = [i for i, left in enumerate(t["left"]) if left >= 0]
-            lines.append("      - feature: [%s]" % ", ".join(names[t["feature"][i]] if i in inner else "leaf"
-                                                          for i in range(len(t["left"]))))
-            lines.append("        threshold: [%s]" % ", ".join("%.6g" % (t["threshold"][i] if i in inner else 0.0)
-                                                            for i in range(len(t["left"]))))
-            lines.append("        left: [%s]" % ", ".join(str(v) for v in t["left"]))
-            lines.append("        right: [%s]" % ", ".join(str(v) for v in t["right"]))
-            lines.append("        value: [%s]" % ", ".join("%.6g" % v for v in t["value"]))
     lines.append("  # END fitted model")
     new, count = re.subn(r"  # BEGIN fitted model.*?  # END fitted model", "\n".join(lines), text, flags=re.S)
     if count != 1:
@@ -217,29 +136,19 @@ def main(argv):
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("trials", nargs="+", help="trials.csv of fused pool runs on the training objects")
     p.add_argument("--l2", type=float, default=0.001)
-    p.add_argument("--trees", type=int, default=0,
-                   help="boosted ranking trees on top of the linear model (0 = linear only)")
-    p.add_argument("--tree-depth", type=int, default=3)
     p.add_argument("--write", action="store_true", help="write the model into config/grasp_planners.yaml")
     args = p.parse_args(argv)
     names, x, y, scene, objects = load(args.trials)
-
-    def fit_model(xs, ys, scenes):
-        b, w = fit(xs, ys, scenes, args.l2)
-        if args.trees:
-            return fit_trees(xs, ys, scenes, b, w, rounds=args.trees, depth=args.tree_depth)
-        return b, w, []
-
-    bias, weights, trees = fit_model(x, y, scene)
-    in_sample, scenes = top1(x, y, scene, bias, weights, trees)
+    bias, weights = fit(x, y, scene, args.l2)
+    in_sample, scenes = top1(x, y, scene, bias, weights)
     pool_order, _ = top1(x, y, scene, 0.0, np.zeros(len(names)))
     # leave one object out: the ranking on objects the model never saw
     held = []
     for obj in sorted(set(objects)):
         train = np.array([o != obj for o in objects])
-        b, w, t = fit_model(x[train], y[train], [s for s, k in zip(scene, train) if k])
+        b, w = fit(x[train], y[train], [s for s, k in zip(scene, train) if k], args.l2)
         idx = np.where(~train)[0]
-        acc, n = top1(x[idx], y[idx], [scene[i] for i in idx], b, w, t)
+        acc, n = top1(x[idx], y[idx], [scene[i] for i in idx], b, w)
         held += [acc] * n
     print("%d candidates in %d scenes of %d objects, %.0f %% of candidates held" %
           (len(y), scenes, len(set(objects)), 100.0 * y.mean()))
@@ -252,7 +161,7 @@ def main(argv):
     if args.write:
         provenance = "%d candidates, %d training scenes (%s), leave-one-object-out top-1 %.0f %%" % (
             len(y), scenes, os.path.basename(os.path.dirname(os.path.abspath(args.trials[0]))), 100 * np.mean(held))
-        write_block(names, bias, weights, trees, provenance)
+        write_block(names, bias, weights, provenance)
         print("wrote the model into %s" % CONFIG)
     return 0
 

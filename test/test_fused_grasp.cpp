@@ -273,29 +273,6 @@ TEST(FusedGrasp, RandomAndBrokenViewsNeverCrashAndGiveFiniteGrasps)
   EXPECT_GT(planned, 0);  // the blobs on a table do get grasps
 }
 
-TEST(FusedGrasp, YamlTreesRankSideGraspsFirstAndBadTreesAreRejected)
-{
-  // One stump: side candidates (from_side > 0.5) +2, every other -2; no linear weights.
-  const char* stump = "{model: {bias: 0.0, trees: [{feature: [from_side, leaf, leaf], threshold: [0.5, 0, 0], "
-                      "left: [1, -1, -1], right: [2, -1, -1], value: [0, -2.0, 2.0]}]}}";
-  FusedParams p = fusedParamsFromYaml(YAML::Load(stump));
-  ASSERT_EQ(p.model.trees.size(), 1u);
-  p.planners.clear();
-  const GraspResult result = FusedGraspPlanner({}, p).plan(boxView(), synthetic::robotiqLikeGripper());
-  ASSERT_TRUE(result.ok()) << result.message;
-  EXPECT_EQ(result.grasps.front().algorithm, "fused/side");
-  EXPECT_NEAR(result.grasps.front().score, 1.0 / (1.0 + std::exp(-2.0)), 1e-9);
-  EXPECT_NEAR(result.grasps.back().score, 1.0 / (1.0 + std::exp(2.0)), 1e-9);
-  // a child that points back up the tree would loop forever: rejected when read
-  EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{model: {trees: [{feature: [from_side, leaf], threshold: [0.5, 0], "
-                                              "left: [1, -1], right: [0, -1], value: [0, 1]}]}}")),
-               std::runtime_error);
-  EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{model: {trees: [{feature: [no_such_feature, leaf, leaf], "
-                                              "threshold: [0.5, 0, 0], left: [1, -1, -1], right: [2, -1, -1], "
-                                              "value: [0, 1, 1]}]}}")),
-               std::runtime_error);
-}
-
 TEST(FusedGrasp, YamlModelNamesFeatures)
 {
   const YAML::Node node = YAML::Load("{model: {bias: 0.5, weights: {from_side: 2.0, approach_down: -1.0}}}");

@@ -100,7 +100,11 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
       const double width = static_cast<double>(hi - lo);
       if (in_slab < 5 || width > gripper.max_opening_m - 0.005)
         continue;
-      const float centre_height = top + static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f - 0.5f * finger_depth;
+      // The palm palm_clearance_m above the top, unless that puts the fingertips closer to the
+      // table than table_clearance_m (a flat object): then the fingertips set the height.
+      const float centre_height =
+          std::max(top + static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f - 0.5f * finger_depth,
+                   static_cast<float>(p.gripper_fit.table_clearance_m) + 0.001f + 0.5f * finger_depth);
       Eigen::Vector3f centre = through + (centre_height - centroid_height) * extent.up;
       centre += 0.5f * (lo + hi) * closing;  // the closing line through the middle of what is between the fingers
       Generated g;

@@ -232,45 +232,11 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   return f;
 }
 
-double RegressionTree::evaluate(const std::vector<double>& features) const
-{
-  std::size_t node = 0;
-  while (left[node] >= 0)
-  {
-    const double f = features[static_cast<std::size_t>(feature[node])];
-    node = static_cast<std::size_t>(f <= threshold[node] ? left[node] : right[node]);
-  }
-  return value[node];
-}
-
-std::string RegressionTree::validate(std::size_t feature_count) const
-{
-  const std::size_t n = left.size();
-  if (n == 0 || right.size() != n || feature.size() != n || threshold.size() != n || value.size() != n)
-    return "a tree's node arrays (feature, threshold, left, right, value) are empty or of different lengths; ";
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    if (!std::isfinite(value[i]))
-      return "a tree value is not finite; ";
-    if (left[i] < 0)
-      continue;
-    const auto child_ok = [&](int child) { return child > static_cast<int>(i) && child < static_cast<int>(n); };
-    if (!child_ok(left[i]) || !child_ok(right[i]))
-      return "a tree node's children are not later nodes of the tree; ";
-    if (feature[i] < 0 || static_cast<std::size_t>(feature[i]) >= feature_count || std::isnan(threshold[i]))
-      return "a tree node splits on no known feature or on a NaN threshold; ";
-  }
-  return "";
-}
-
 double GraspSuccessModel::probability(const std::vector<double>& features) const
 {
   double z = bias;
   for (std::size_t i = 0; i < weights.size() && i < features.size(); ++i)
     z += weights[i] * features[i];
-  if (features.size() == graspFeatureNames().size())
-    for (const RegressionTree& tree : trees)
-      z += tree.evaluate(features);
   return 1.0 / (1.0 + std::exp(-z));
 }
 
@@ -287,15 +253,6 @@ std::string GraspSuccessModel::validate() const
       why << "a model weight is not finite; ";
       break;
     }
-  for (const RegressionTree& tree : trees)
-  {
-    const std::string problem = tree.validate(graspFeatureNames().size());
-    if (!problem.empty())
-    {
-      why << problem;
-      break;
-    }
-  }
   return why.str();
 }
 

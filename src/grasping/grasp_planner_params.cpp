@@ -323,31 +323,6 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   std::map<std::string, double> weights;
   model.read("weights", weights);
   model.read("fitted_on", p.model.fitted_on);
-  const YAML::Node trees = model.child("trees");
-  if (trees && !trees.IsSequence())
-    throw std::runtime_error("fused/model/trees must be a list of trees");
-  for (std::size_t t = 0; trees && t < trees.size(); ++t)
-  {
-    SectionReader tree(trees[t], "fused/model/trees[" + std::to_string(t) + "]");
-    RegressionTree parsed;
-    std::vector<std::string> features;
-    tree.read("feature", features);
-    tree.read("threshold", parsed.threshold);
-    tree.read("left", parsed.left);
-    tree.read("right", parsed.right);
-    tree.read("value", parsed.value);
-    tree.rejectUnknownKeys();
-    const auto& names = graspFeatureNames();
-    for (const std::string& feature : features)
-    {
-      // leaves name no feature ("leaf")
-      const auto it = std::find(names.begin(), names.end(), feature);
-      if (it == names.end() && feature != "leaf")
-        throw std::runtime_error("fused/model/trees: unknown feature '" + feature + "'");
-      parsed.feature.push_back(it == names.end() ? -1 : static_cast<int>(it - names.begin()));
-    }
-    p.model.trees.push_back(std::move(parsed));
-  }
   model.rejectUnknownKeys();
   if (!weights.empty())
   {

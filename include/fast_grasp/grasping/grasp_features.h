@@ -51,29 +51,11 @@ const std::vector<std::string>& graspFeatureSources();
 std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string& source, const ObjectView& view,
                                   const ObjectExtent& extent, const GripperModel& gripper);
 
-/// One regression tree of the success model, as flat node arrays: node i is a leaf when
-/// left[i] < 0 (its value counts), else features[feature[i]] <= threshold[i] goes to left[i],
-/// anything else (NaN too) to right[i]. Children always have larger indices than their parent
-/// (validate() checks it), so an evaluation ends after at most size() steps.
-struct RegressionTree
-{
-  std::vector<int> feature;
-  std::vector<double> threshold;
-  std::vector<int> left, right;
-  std::vector<double> value;
-
-  double evaluate(const std::vector<double>& features) const;
-  std::string validate(std::size_t feature_count) const;
-};
-
-/// Success model: p = 1 / (1 + exp(-(bias + weights . features + sum of the trees))). The trees
-/// (boosted on the linear ranking, scripts/fit_fused_model.py --trees) carry what a weighted
-/// sum cannot: a feature that matters only for some objects (the lever only for heavy ones).
+/// Logistic success model: p = 1 / (1 + exp(-(bias + weights . features))).
 struct GraspSuccessModel
 {
   double bias = 0.0;
   std::vector<double> weights;  // graspFeatureNames() order; empty = every weight 0
-  std::vector<RegressionTree> trees;
   std::string fitted_on;        // provenance line written by scripts/fit_fused_model.py
 
   double probability(const std::vector<double>& features) const;
