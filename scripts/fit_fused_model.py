@@ -3,14 +3,14 @@
 config/grasp_planners.yaml (the block between `# BEGIN fitted model` and `# END fitted model`).
 
 Input: trials.csv files of scripts/evaluate_grasps_physics.py run on the TRAINING objects with
-`--planners fused --pool 60` and a fused max_grasps of 100 (every pooled candidate simulated,
+`--planners fused --pool 100` and a fused max_grasps of 100 (every pooled candidate simulated,
 with its features f_*). Label: the grasp held and touched nothing before closing. Model: L2-
 regularised logistic regression (Newton steps), the one the C++ side scores with
 (grasp_features.h). Printed: per-scene top-1 success of the fitted ranking, in-sample and
 leave-one-object-out, beside the pool's ceiling (some candidate held).
 
     PY="$(bash scripts/setup_venv.sh)"
-    "$PY" scripts/evaluate_grasps_physics.py --split train --planners fused --pool 60 \\
+    "$PY" scripts/evaluate_grasps_physics.py --split train --planners fused --pool 100 --poses 6 \\
         --params /tmp/params_pool.yaml --out-dir bench_out/pool_train
     "$PY" scripts/fit_fused_model.py bench_out/pool_train/trials.csv [--write]
 """
