@@ -1,15 +1,13 @@
 // The fused planner (thesis 7.3 A and B, "combine the algorithms"): runs the thesis planners on
-// one view, pools their candidates with three simple families of its own (top-down grasps at
-// and beside the centroid, the same turned about the fingers' width direction, and side grasps
-// at the centroid's height), fits the real hand at each (GripperVolumeCheck, with
+// one view, pools their candidates with two simple families of its own (top-down and side
+// grasps through the object's centroid), fits the real hand at each (GripperVolumeCheck, with
 // the table tilt), and ranks the pool with one success model (grasp_features.h) whose
 // coefficients were fitted to the physics evaluator's outcomes on the training objects
 // (config/grasp_planners.yaml `fused/model`, written by scripts/fit_fused_model.py).
 //
 // Beyond the thesis: the thesis proposes fusing its planners but never built or measured it;
 // the generated families are ours, added because the physics evaluator showed a plain top-down
-// grasp holding more often than any thesis planner's top grasp (and the tilted ones because
-// top-down grasps on lying cylinders slipped out on the lift). ROS-free.
+// grasp holding more often than any thesis planner's top grasp. ROS-free.
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
