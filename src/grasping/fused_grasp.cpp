@@ -83,7 +83,6 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
       const Eigen::Vector3f closing = std::cos(angle) * e1 + std::sin(angle) * e2;
       const Eigen::Vector3f across = extent.up.cross(closing);  // the fingers' width direction
       float lo = std::numeric_limits<float>::max(), hi = -lo, top = -lo;
-      float slab_bottom = lo, slab_top = -lo;
       std::size_t in_slab = 0;
       for (const Eigen::Vector3f& v : points)
       {
@@ -93,9 +92,6 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
         {
           lo = std::min(lo, y);
           hi = std::max(hi, y);
-          const float h = extent.up.dot(v) + extent.table_offset;
-          slab_bottom = std::min(slab_bottom, h);
-          slab_top = std::max(slab_top, h);
           ++in_slab;
         }
         if (z <= half_palm_z && std::abs(y) <= half_palm_y)
@@ -116,47 +112,6 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
       g.grasp.pose = makeGraspPose(centre.cast<double>(), (-extent.up).cast<double>(), closing.cast<double>());
       g.grasp.width_m = std::max(width, gripper.min_opening_m);
       out.push_back(g);
-
-      // The same grasp turned by +-tilted_top_down_rad about the fingers' width direction,
-      // through the middle of what lies between the fingers: the lower finger then carries the
-      // object's weight instead of the fingertips' grip alone (physics: top-down grasps on
-      // lying cans and bottles slip out on the lift, grasps tilted 20-45 deg held five times as
-      // often). The palm stops palm_clearance_m in front of the nearest point along the turned
-      // approach, as the top-down palm does above the top.
-      if (p.tilted_top_down_rad <= 0.0)
-        continue;
-      const Eigen::Vector3f pivot = through + 0.5f * (lo + hi) * closing +
-                                    (0.5f * (slab_bottom + slab_top) - centroid_height) * extent.up;
-      for (const float sign : { -1.0f, 1.0f })
-      {
-        const Eigen::AngleAxisf turn(sign * static_cast<float>(p.tilted_top_down_rad), across);
-        const Eigen::Vector3f approach = turn * (-extent.up);
-        const Eigen::Vector3f turned_closing = turn * closing;
-        float front = std::numeric_limits<float>::max(), near = front, far = -front;
-        for (const Eigen::Vector3f& v : points)
-        {
-          const Eigen::Vector3f d = v - pivot;
-          const float z = std::abs(d.dot(across)), y = d.dot(turned_closing);
-          if (z <= half_finger)
-          {
-            near = std::min(near, y);
-            far = std::max(far, y);
-          }
-          if (z <= half_palm_z && std::abs(y) <= half_palm_y)
-            front = std::min(front, d.dot(approach));
-        }
-        const double turned_width = static_cast<double>(far - near);
-        if (!(turned_width <= gripper.max_opening_m - 0.005))
-          continue;
-        const Eigen::Vector3f tilted_centre =
-            pivot + (front - static_cast<float>(p.gripper_fit.palm_clearance_m) - 0.001f + 0.5f * finger_depth) * approach +
-            0.5f * (near + far) * turned_closing;
-        Generated t;
-        t.source = "tilted";
-        t.grasp.pose = makeGraspPose(tilted_centre.cast<double>(), approach.cast<double>(), turned_closing.cast<double>());
-        t.grasp.width_m = std::max(turned_width, gripper.min_opening_m);
-        out.push_back(t);
-      }
     }
   }
 }
@@ -210,8 +165,6 @@ std::string FusedParams::validate() const
     why << "max_grasps must be >= 1; ";
   if (!(side_spread_rad >= 0.0 && side_spread_rad <= M_PI))
     why << "side_spread_rad must be in [0, pi]; ";
-  if (!(tilted_top_down_rad >= 0.0 && tilted_top_down_rad < 0.5 * M_PI))
-    why << "tilted_top_down_rad must be in [0, pi/2); ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
     why << "min_success_probability must be in [0, 1]; ";
   why << gripper_fit.validate() << model.validate();
@@ -269,7 +222,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       pool.push_back(std::move(g));
       ++kept;
     }
-    summary << "top_down + tilted + side: " << kept << " of " << generated.size() << " fit; ";
+    summary << "top_down + side: " << kept << " of " << generated.size() << " fit; ";
   }
   result.candidates_evaluated += generated.size();
 

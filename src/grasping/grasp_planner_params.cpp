@@ -312,7 +312,6 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
       throw std::runtime_error("fused/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
   reader.readCount("top_down_directions", p.top_down_directions, 0);
-  reader.readNonNegative("tilted_top_down_rad", p.tilted_top_down_rad);
   reader.readCount("side_directions", p.side_directions, 0);
   reader.readNonNegative("side_spread_rad", p.side_spread_rad);
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);

@@ -28,10 +28,6 @@ struct FusedParams
   /// the object's length along its major horizontal axis (0 = none); each closes on what lies
   /// between the fingers, the palm palm_clearance_m above the highest point under it.
   std::size_t top_down_directions = 12;
-  /// Each top-down candidate also turned by +- this about the fingers' width direction (through
-  /// the middle of what lies between the fingers), so that the lower finger carries the weight
-  /// (0 = none).
-  double tilted_top_down_rad = 0.6;
   /// Side candidates at the centroid's height, approaching horizontally from the camera's side
   /// within +-side_spread_rad of the view direction (0 = none).
   std::size_t side_directions = 5;
