@@ -160,7 +160,9 @@ class Report:
                                 q.x, q.y, q.z, q.w, g.width_m, g.score))
                 metrics = [(name, getattr(g, name)) for name in
                            ("force_balance_rad", "xoz_offset_m", "variance_m", "torque_offset_m", "gravity_offset_m")]
-                lines.append("    metrics: " + ", ".join("%s %.4f" % (n, v) for n, v in metrics if not math.isnan(v)))
+                known = ["%s %.4f" % (n, v) for n, v in metrics if not math.isnan(v)]
+                if known:  # the fused planner's own candidates carry no thesis metric
+                    lines.append("    metrics: " + ", ".join(known))
             else:
                 lines.append("  no grasp: %s" % grasps.status)
                 if "next_view" in parts:
