@@ -19,12 +19,13 @@ namespace fast_grasp
 {
 namespace
 {
-// Box: 4 cm along x, 6 cm along y, 8 cm tall, standing on z = 0 (the table).
-ObjectView boxView()
+// Box: 4 cm along x, 6 cm along y, 8 cm tall, standing on z = 0 (the table), points
+// `spacing_m` apart.
+ObjectView boxView(double spacing_m = 0.002)
 {
   const Eigen::Vector3d camera(-0.35, 0.0, 0.43);
   auto cloud = synthetic::renderView(synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.06, 0.08 }),
-                                     { camera, 0.002, 0.0, 1 });
+                                     { camera, spacing_m, 0.0, 1 });
   ObjectView view = synthetic::makeObjectView(cloud, camera);
   view.has_table_plane = true;
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
@@ -89,12 +90,7 @@ TEST(FusedGrasp, DenseViewsAreThinnedToMaxPooledPoints)
 {
   // The box seen at 1 mm spacing: ~10k points. Capped at 1000, the points between the fingers
   // of every candidate come from at most 1000 points; uncapped, from many more.
-  const Eigen::Vector3d camera(-0.35, 0.0, 0.43);
-  auto cloud = synthetic::renderView(synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.06, 0.08 }),
-                                     { camera, 0.001, 0.0, 1 });
-  ObjectView view = synthetic::makeObjectView(cloud, camera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectView view = boxView(0.001);
   ASSERT_GT(view.cloud->size(), 5000u);
   const auto most_between = [&](std::size_t cap) {
     FusedParams p = onlyGenerated();

@@ -20,14 +20,6 @@ namespace
 // not allocate without bound).
 constexpr int kMaxGridCells1d = 1000;  // <= 1M cells, ~9 MB of scratch
 
-std::string formatNumber(double value)
-{
-  std::ostringstream out;
-  out.precision(3);
-  out << value;
-  return out.str();
-}
-
 /// Mean point spacing on the plane: the points of a 1 cm grid's well-filled cells (75th
 /// percentile of the occupied cells' counts, so the part-filled rim cells do not count) are
 /// spread over 1 cm^2 each.

@@ -35,14 +35,6 @@ constexpr double kChainLinkCells = 2.5;
 // Boundaries longer than this (cells) are not chained (O(m^2) nearest-neighbour ordering).
 constexpr std::size_t kMaxBoundaryCells = 4000;
 
-std::string formatNumber(double value)
-{
-  std::ostringstream out;
-  out.precision(3);
-  out << value;
-  return out.str();
-}
-
 /// Eq. 5.2 and 5.3 from chain point `first` on: the first segment (n, n + 1) whose ends lie on
 /// either side of the circle of radius r about p0, and the crossing point on it.
 bool firstCircleCrossing(const std::vector<Eigen::Vector2f>& chain, std::size_t first, const Eigen::Vector2f& p0,

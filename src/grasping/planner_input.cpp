@@ -3,9 +3,18 @@
 #include <algorithm>
 #include <limits>
 #include <cmath>
+#include <sstream>
 
 namespace fast_grasp
 {
+std::string formatNumber(double value)
+{
+  std::ostringstream out;
+  out.precision(3);
+  out << value;
+  return out.str();
+}
+
 std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
                                              const GripperModel& gripper, const ObjectView& view,
                                              std::size_t min_points)

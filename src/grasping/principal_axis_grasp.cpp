@@ -465,14 +465,6 @@ std::vector<Eigen::Vector2d> clearOfEndsXz(const std::vector<Eigen::Vector3f>& o
   return face_xz;
 }
 
-std::string formatNumber(double value)
-{
-  std::ostringstream out;
-  out.precision(4);
-  out << value;
-  return out.str();
-}
-
 }  // namespace
 
 std::vector<SweepLine> sweepProjectedContour(const std::vector<Eigen::Vector3f>& object_points, double sweep_step_m,

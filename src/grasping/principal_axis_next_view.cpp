@@ -1,6 +1,7 @@
 #include "fast_grasp/grasping/principal_axis_next_view.h"
 
 #include "fast_grasp/grasping/grasp_geometry.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include <algorithm>
 #include <cmath>
@@ -71,16 +72,6 @@ Eigen::Isometry3d viewTurnedAboutAxis(const CameraAboutAxis& camera, double phi)
   about_axis.linear() = Eigen::AngleAxisd(phi, camera.axis.cast<double>().normalized()).toRotationMatrix();
   about_axis.translation() = centre - about_axis.linear() * centre;
   return about_axis * current;
-}
-
-/// Same precision as the planner's own messages (principal_axis_grasp.cpp), which these
-/// reasons are appended to.
-std::string formatNumber(double value)
-{
-  std::ostringstream out;
-  out.precision(4);
-  out << value;
-  return out.str();
 }
 
 }  // namespace

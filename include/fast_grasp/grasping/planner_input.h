@@ -27,6 +27,9 @@ namespace fast_grasp
 /// Larger than any graspable object by two orders of magnitude (grippers open < 0.3 m).
 constexpr double kMaxObjectExtentM = 10.0;
 
+/// A number in a planner's failure or summary message: 3 significant digits.
+std::string formatNumber(double value);
+
 std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
                                              const GripperModel& gripper, const ObjectView& view,
                                              std::size_t min_points);
