@@ -179,11 +179,7 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   float lowest = std::numeric_limits<float>::max();
   for (const GripperBox& box : openGripperBoxes(gripper, gripper.max_opening_m))
     for (int corner = 0; corner < 8; ++corner)
-    {
-      const Eigen::Vector3f q((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
-                              (corner & 4) ? box.max.z() : box.min.z());
-      lowest = std::min(lowest, extent.up.dot(origin + rotation * q) + extent.table_offset);
-    }
+      lowest = std::min(lowest, extent.up.dot(origin + rotation * box.corner(corner)) + extent.table_offset);
   f[k++] = clampf(lowest / finger_depth, -1.0f, 2.0f);
   f[k++] = clampf(extent.height_m / opening, 0.0f, 4.0f);
   // Contacts: points within 1 cm of each side's outermost point. facing = mean |n . closing|

@@ -151,11 +151,7 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
     float lowest = std::numeric_limits<float>::infinity();
     for (const GripperBox& box : open_boxes_)
       for (int corner = 0; corner < 8; ++corner)
-      {
-        const Eigen::Vector3f q((corner & 1) ? box.max.x() : box.min.x(), (corner & 2) ? box.max.y() : box.min.y(),
-                                (corner & 4) ? box.max.z() : box.min.z());
-        lowest = std::min(lowest, normal_local.dot(q));
-      }
+        lowest = std::min(lowest, normal_local.dot(box.corner(corner)));
     lowest += normal.dot(origin) + table_(3);  // at backoff 0
     const float descent = normal_local.x();   // height change per metre along the approach
     const float table_clearance = static_cast<float>(params_.table_clearance_m);

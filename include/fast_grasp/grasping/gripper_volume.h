@@ -33,6 +33,11 @@ struct GripperBox
   {
     return (p.array() >= min.array()).all() && (p.array() <= max.array()).all();
   }
+  /// Corner i in [0, 8): bit 0, 1, 2 pick max (set) or min along x, y, z.
+  Eigen::Vector3f corner(int i) const
+  {
+    return { (i & 1) ? max.x() : min.x(), (i & 2) ? max.y() : min.y(), (i & 4) ? max.z() : min.z() };
+  }
 };
 
 /// The open gripper in grasp coordinates (DESIGN.md: origin at the centre of the closing
