@@ -20,6 +20,7 @@
 // Last line: `segmentation: right P % (fits: Q %) merged M % split S % median X ms per frame`.
 #include "bench_stats.h"
 #include "command_line.h"
+#include "fast_grasp/perception/concave_split.h"
 #include "fast_grasp/perception/table_segmentation.h"
 
 #include <pcl/filters/uniform_sampling.h>
@@ -153,6 +154,44 @@ std::vector<pcl::PointIndices> lccpClusters(const fast_grasp::CloudXYZ& cloud, c
   return out;
 }
 
+/// Side-by-side image (labels left, clusters right) of the sampled points projected with the
+/// Kinect's nominal intrinsics (525 px focal length), as a binary PPM.
+void writeLabelImage(const std::string& path, const LabelledCloud& sampled, const std::vector<int>& cluster_of)
+{
+  const int w = 640, h = 480;
+  std::vector<unsigned char> image(static_cast<std::size_t>(2 * w * h * 3), 0);
+  auto colour = [](int id, int k) {
+    if (id < 0)
+      return 40;
+    const unsigned hash = static_cast<unsigned>(id + 1) * 2654435761u;
+    return 60 + static_cast<int>((hash >> (8 * k)) & 0xff) * 195 / 255;
+  };
+  for (std::size_t i = 0; i < sampled.size(); ++i)
+  {
+    const auto& p = sampled[i];
+    const int u = static_cast<int>(525.0f * p.x / p.z + 319.5f), v = static_cast<int>(525.0f * p.y / p.z + 239.5f);
+    const int label = p.label >= 10 ? static_cast<int>(p.label / 10) : (p.label >= 1 ? 0 : -1);
+    for (int du = -1; du <= 1; ++du)
+      for (int dv = -1; dv <= 1; ++dv)
+      {
+        const int x = u + du, y = v + dv;
+        if (x < 0 || x >= w || y < 0 || y >= h)
+          continue;
+        for (int k = 0; k < 3; ++k)
+        {
+          image[static_cast<std::size_t>((y * 2 * w + x) * 3 + k)] = static_cast<unsigned char>(label == 0 ? 90 : colour(label * 7, k));
+          image[static_cast<std::size_t>((y * 2 * w + w + x) * 3 + k)] = static_cast<unsigned char>(colour(cluster_of[i], k));
+        }
+      }
+  }
+  FILE* out = std::fopen(path.c_str(), "wb");
+  if (!out)
+    return;
+  std::fprintf(out, "P6\n%d %d\n255\n", 2 * w, h);
+  std::fwrite(image.data(), 1, image.size(), out);
+  std::fclose(out);
+}
+
 struct Counts
 {
   int objects = 0, right = 0, merged = 0, split = 0;
@@ -171,8 +210,12 @@ int main(int argc, char** argv)
       "  --min-points N    objects with fewer down-sampled points are not counted (default 50)\n"
       "  --opening M       gripper opening for the 'fits' count (default 0.085)\n"
       "  --scenes LIST     only these scenes\n"
-      "  --method M        euclidean (the pipeline's) or lccp (experiment: PCL's LCCP over the clusters,\n"
-      "                    --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n";
+      "  --dump-dir DIR    write DIR/<scene>.ppm: labels (left) and clusters (right) in the image\n"
+      "  --method M        concave (the pipeline's: Euclidean clusters cut at concave creases, default),\n"
+      "                    euclidean (Euclidean clusters only) or lccp (experiment: PCL's LCCP over the\n"
+      "                    Euclidean clusters, --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n"
+      "  --tolerance-rad R, --link-radius-m M, --k N, --min-piece N: the concave split's parameters\n"
+      "                    (default: config/perception.yaml's)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   std::string data = std::getenv("FAST_GRASP_MOSD_DIR") ? std::getenv("FAST_GRASP_MOSD_DIR") : "";
   if (data.empty())
@@ -181,8 +224,10 @@ int main(int argc, char** argv)
   double opening = 0.085;
   std::set<std::string> only;
   std::string split = "all";
-  std::string method = "euclidean";
+  std::string method = "concave";
+  fast_grasp::TableSegmentationParams params;  // config/perception.yaml's values
   float seed_m = 0.03f, concavity_deg = 10.0f;
+  std::string dump_dir;
   for (int i = 1; i < argc; ++i)
   {
     const std::string flag = argv[i];
@@ -201,10 +246,20 @@ int main(int argc, char** argv)
     }
     else if (flag == "--method")
       method = value;
+    else if (flag == "--tolerance-rad")
+      params.concave_split.concave_tolerance_rad = std::stod(value);
+    else if (flag == "--link-radius-m")
+      params.concave_split.link_radius_m = std::stod(value);
+    else if (flag == "--k")
+      params.concave_split.k_neighbours = std::stoi(value);
+    else if (flag == "--min-piece")
+      params.concave_split.min_piece_points = std::stoi(value);
     else if (flag == "--seed-m")
       seed_m = std::stof(value);
     else if (flag == "--concavity-deg")
       concavity_deg = std::stof(value);
+    else if (flag == "--dump-dir")
+      dump_dir = value;
     else if (flag == "--opening")
       opening = std::stod(value);
     else if (flag == "--scenes")
@@ -249,12 +304,14 @@ int main(int argc, char** argv)
     files.swap(kept);
   }
 
-  fast_grasp::TableSegmentationParams params;  // config/perception.yaml's values
   params.plane_distance_m = 0.01;
   params.min_height_above_table_m = 0.01;
   params.cluster_tolerance_m = 0.02;
   params.min_cluster_points = 30;
   params.max_object_distance_m = 0.0;  // no robot here: every cluster counts
+  params.split_concave_creases = method == "concave";  // lccp re-cuts the Euclidean clusters
+  if (method != "euclidean" && method != "concave" && method != "lccp")
+    fast_grasp::exitWithUsage("--method: '" + method + "' is none of concave, euclidean, lccp", kUsage);
   Counts total;
   std::vector<double> frame_ms;
   std::printf("%-10s %7s %5s %5s %6s %5s %8s\n", "scene", "objects", "right", "merged", "split", "fits", "ms");
@@ -297,6 +354,15 @@ int main(int argc, char** argv)
     for (std::size_t c = 0; c < result.clusters.size(); ++c)
       for (const int i : result.clusters[c].indices)
         cluster_of[static_cast<std::size_t>(i)] = static_cast<int>(c);
+    if (!dump_dir.empty() && std::getenv("FAST_GRASP_DUMP_POINTS"))
+    {
+      FILE* f = std::fopen((dump_dir + "/" + std::filesystem::path(file).stem().string() + ".txt").c_str(), "w");
+      for (std::size_t i = 0; i < sampled.size(); ++i)
+        std::fprintf(f, "%.4f %.4f %.4f %d %d\n", sampled[i].x, sampled[i].y, sampled[i].z, static_cast<int>(sampled[i].label), cluster_of[i]);
+      std::fclose(f);
+    }
+    if (!dump_dir.empty())
+      writeLabelImage(dump_dir + "/" + std::filesystem::path(file).stem().string() + ".ppm", sampled, cluster_of);
     Counts scene;
     for (const auto& [id, members] : objects)
     {

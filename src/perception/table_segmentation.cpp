@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numeric>
 #include <sstream>
 #include <unordered_set>
 #include <utility>
@@ -85,6 +86,12 @@ std::string validateParams(const TableSegmentationParams& params)
     return "cluster_tolerance_m must be positive";
   if (params.min_cluster_points < 1 || params.max_cluster_points < params.min_cluster_points)
     return "need 1 <= min_cluster_points <= max_cluster_points";
+  if (params.concave_split.k_neighbours < 3 || !(params.concave_split.link_radius_m > 0.0) ||
+      !(params.concave_split.concave_tolerance_rad > 0.0 && params.concave_split.concave_tolerance_rad < M_PI) ||
+      params.concave_split.min_piece_points < 1 || params.concave_split.bend_samples < 0 ||
+      !(params.concave_split.table_cell_m > 0.0))
+    return "concave split: need k_neighbours >= 3, link_radius_m > 0, concave_tolerance_rad in (0, pi), "
+           "min_piece_points >= 1, bend_samples >= 0, table_cell_m > 0";
   if (!(params.stacked_overlap_fraction > 0.0 && params.stacked_overlap_fraction <= 1.0))
     return "stacked_overlap_fraction must be in (0, 1]";
   if (!params.reference_point_m.allFinite() || !params.target_point_m.allFinite())
@@ -165,11 +172,31 @@ double overlapFraction(const CloudXYZ& cloud, const pcl::Indices& points, const 
   return points.empty() ? 0.0 : static_cast<double>(over) / static_cast<double>(points.size());
 }
 
-/// Merges into clusters[target] every cluster stacked on it: one lies mostly over the other's
-/// footprint (a cap over a bottle, a stem under a glass bowl). Repeats, since a merged part
-/// extends the object. Updates target and centroids; returns the number of merged clusters.
+struct HeightRange
+{
+  double low = std::numeric_limits<double>::infinity();
+  double high = -std::numeric_limits<double>::infinity();
+};
+
+HeightRange heightRange(const CloudXYZ& cloud, const pcl::Indices& points, const Eigen::Vector4f& plane)
+{
+  HeightRange range;
+  for (const auto i : points)
+  {
+    const double height = plane.head<3>().dot(cloud.points[static_cast<std::size_t>(i)].getVector3fMap()) + plane[3];
+    range.low = std::min(range.low, height);
+    range.high = std::max(range.high, height);
+  }
+  return range;
+}
+
+/// Merges into clusters[target] every cluster stacked on it: one lies above the other and mostly
+/// over its footprint (a cap over a bottle, a stem under a glass bowl). Repeats, since a merged part
+/// extends the object. Clusters of the target's gap_group (pieces of its Euclidean cluster)
+/// are never merged. Updates target and centroids; returns the number of merged clusters.
 int mergeStackedClusters(const CloudXYZ& cloud, const Eigen::Vector4f& plane, const TableSegmentationParams& params,
-                         int& target, std::vector<pcl::PointIndices>& clusters, std::vector<Eigen::Vector3f>& centroids)
+                         const std::vector<int>& gap_group, int& target, std::vector<pcl::PointIndices>& clusters,
+                         std::vector<Eigen::Vector3f>& centroids)
 {
   pcl::Indices object_points = clusters[target].indices;
   std::vector<bool> merged(clusters.size(), false);
@@ -179,9 +206,16 @@ int mergeStackedClusters(const CloudXYZ& cloud, const Eigen::Vector4f& plane, co
     changed = false;
     for (std::size_t c = 0; c < clusters.size(); ++c)
     {
-      if (static_cast<int>(c) == target || merged[c])
+      if (static_cast<int>(c) == target || merged[c] || gap_group[c] == gap_group[static_cast<std::size_t>(target)])
         continue;
       const pcl::Indices& part = clusters[c].indices;
+      // Stacked means one above the other: their height ranges meet at most within the
+      // clustering tolerance. An object lying against another's side overlaps its footprint
+      // (the footprint is dilated by a cell) but shares its heights.
+      const HeightRange part_heights = heightRange(cloud, part, plane), object_heights = heightRange(cloud, object_points, plane);
+      const double tolerance = params.cluster_tolerance_m;
+      if (part_heights.low < object_heights.high - tolerance && object_heights.low < part_heights.high - tolerance)
+        continue;
       if (overlapFraction(cloud, part, object_points, plane, params.cluster_tolerance_m) <
               params.stacked_overlap_fraction &&
           overlapFraction(cloud, object_points, part, plane, params.cluster_tolerance_m) <
@@ -316,6 +350,21 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
     clustering.setIndices(candidates);
     clustering.extract(result.clusters);
   }
+  // gap_group[c]: the Euclidean cluster that clusters[c] is a piece of.
+  std::vector<int> gap_group(result.clusters.size());
+  std::iota(gap_group.begin(), gap_group.end(), 0);
+  if (params.split_concave_creases && !result.clusters.empty())
+  {
+    std::vector<int> euclidean_of(cloud->size(), -1);
+    for (std::size_t c = 0; c < result.clusters.size(); ++c)
+      for (const auto i : result.clusters[c].indices)
+        euclidean_of[static_cast<std::size_t>(i)] = static_cast<int>(c);
+    result.clusters = splitAtConcaveCreases(*cloud, result.clusters, cloud->sensor_origin_.head<3>(), plane, *result.table,
+                                            params.concave_split);
+    gap_group.clear();
+    for (const auto& piece : result.clusters)
+      gap_group.push_back(euclidean_of[static_cast<std::size_t>(piece.indices.front())]);
+  }
   auto fillScene = [&]() {
     std::vector<bool> in_object(cloud->size(), false);
     if (result.target_index >= 0)
@@ -379,7 +428,7 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
   }
   if (params.merge_stacked_clusters && result.clusters.size() > 1)
   {
-    result.merged_clusters = mergeStackedClusters(*cloud, plane, params, best, result.clusters, centroids);
+    result.merged_clusters = mergeStackedClusters(*cloud, plane, params, gap_group, best, result.clusters, centroids);
   }
   result.target_index = best;
   result.object_centroid = centroids[best];

@@ -130,7 +130,11 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
   std::vector<int> object_indices;
   if (params.segment_table)
   {
-    const TableSegmentationResult seg = segmentTable(merged, params.segmentation);
+    // The concave-crease split orients normals toward one camera; points only a second camera
+    // saw face away from it and would read as creases, so fused views are clustered whole.
+    TableSegmentationParams segmentation = params.segmentation;
+    segmentation.split_concave_creases = segmentation.split_concave_creases && first_index_of_camera.size() <= 2;
+    const TableSegmentationResult seg = segmentTable(merged, segmentation);
     if (!seg.ok())
       return fail(prepared, ViewStage::Segmentation, statusOf(seg.failure), seg.reason);
     if (seg.target_index < 0 || static_cast<std::size_t>(seg.target_index) >= seg.clusters.size())

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/perception/concave_split.h"
 
 #include <Eigen/Core>
 #include <pcl/PointIndices.h>
@@ -43,10 +44,17 @@ struct TableSegmentationParams
   double cluster_tolerance_m = 0.02;
   int min_cluster_points = 30;
   int max_cluster_points = 100000;
+  /// Cut each Euclidean cluster at its concave creases (concave_split.h), so touching objects
+  /// come out as separate clusters. Normals face the input's sensor_origin_. Off by default: it
+  /// also cuts single objects made of convex parts (a drill's chuck, a racket's head).
+  bool split_concave_creases = false;
+  ConcaveSplitParams concave_split;
   TargetCluster target = TargetCluster::CenterOfView;
   /// Clusters stacked on the target (their projection onto the table lies mostly over the
   /// target's footprint) are parts of it that a gap split off: a transparent neck, a thin stem
-  /// lost to noise. Nothing floats, so they are merged into the object.
+  /// lost to noise. Nothing floats, so they are merged into the object. Only clusters a gap
+  /// separated are merged: pieces that a concave crease cut from the target's Euclidean cluster
+  /// (a box standing on a box) stay apart.
   bool merge_stacked_clusters = true;
   /// Fraction of a cluster's points that must project within cluster_tolerance_m of the
   /// target's footprint for it to be merged.

@@ -1,0 +1,341 @@
+#include "fast_grasp/perception/concave_split.h"
+
+#include <pcl/features/normal_3d.h>
+#include <pcl/search/kdtree.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <random>
+#include <unordered_set>
+
+namespace fast_grasp
+{
+namespace
+{
+/// Union-find over the points of one cluster.
+class Pieces
+{
+public:
+  explicit Pieces(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  std::size_t find(std::size_t i)
+  {
+    while (parent_[i] != i)
+      i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  void join(std::size_t a, std::size_t b) { parent_[find(a)] = find(b); }
+  std::size_t size() const { return parent_.size(); }
+
+private:
+  std::vector<std::size_t> parent_;
+};
+
+struct TableAxes
+{
+  explicit TableAxes(const Eigen::Vector3f& up_axis)
+    : up(up_axis.normalized()), u(up.unitOrthogonal()), v(up.cross(u))
+  {
+  }
+  Eigen::Vector2f project(const Eigen::Vector3f& p) const { return { u.dot(p), v.dot(p) }; }
+  Eigen::Vector3f up, u, v;
+};
+
+/// A single object seen from outside is convex or flat; a piece that curves inward everywhere is
+/// the inside of a container (a mug's or a pot's far inner wall and bottom), cut from its outer
+/// wall along the rim. Joins each such piece (more than concave_piece_fraction of its bent links
+/// concave) to the neighbour piece it shares most border links with.
+void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
+                                 const std::vector<Eigen::Vector3f>& normals, const std::vector<int>& piece_of,
+                                 const ConcaveSplitParams& params, Pieces& objects)
+{
+  // Border links between pieces.
+  const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
+  std::vector<std::map<int, int>> border(objects.size());
+  std::vector<std::vector<std::size_t>> members(objects.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    members[static_cast<std::size_t>(piece_of[i])].push_back(i);
+    for (const auto j : neighbours[i])
+      if (piece_of[static_cast<std::size_t>(j)] != piece_of[i] &&
+          (points.points[i].getVector3fMap() - points.points[static_cast<std::size_t>(j)].getVector3fMap()).squaredNorm() <=
+              link_radius_sq)
+        ++border[static_cast<std::size_t>(piece_of[i])][piece_of[static_cast<std::size_t>(j)]];
+  }
+  // Bending is judged between points a few centimetres apart: neighbouring normals differ by
+  // less than the sensor noise along a mug's inside. Fixed seed: the same cloud, the same answer.
+  std::mt19937 rng(1);
+  const float near_sq = static_cast<float>(params.bend_min_distance_m * params.bend_min_distance_m);
+  const float far_sq = static_cast<float>(params.bend_max_distance_m * params.bend_max_distance_m);
+  const float bent_cosine = static_cast<float>(std::cos(params.bent_pair_rad));
+  for (std::size_t piece = 0; piece < objects.size(); ++piece)
+  {
+    const auto& list = members[piece];
+    if (border[piece].empty() || list.size() < 2)
+      continue;
+    std::uniform_int_distribution<std::size_t> pick(0, list.size() - 1);
+    int bent = 0, concave = 0;
+    for (int attempt = 0; attempt < params.bend_samples; ++attempt)
+    {
+      const std::size_t i = list[pick(rng)], j = list[pick(rng)];
+      const Eigen::Vector3f offset = points.points[i].getVector3fMap() - points.points[j].getVector3fMap();
+      const float distance_sq = offset.squaredNorm();
+      if (distance_sq < near_sq || distance_sq > far_sq || normals[i].dot(normals[j]) > bent_cosine)
+        continue;
+      ++bent;
+      concave += (normals[i] - normals[j]).dot(offset) < 0.0f ? 1 : 0;
+    }
+    if (bent == 0 || static_cast<double>(concave) <= params.concave_piece_fraction * static_cast<double>(bent))
+      continue;
+    const auto holder = std::max_element(border[piece].begin(), border[piece].end(),
+                                         [](const auto& x, const auto& y) { return x.second < y.second; });
+    objects.join(piece, static_cast<std::size_t>(holder->first));
+  }
+}
+
+/// Where the camera saw the table: occupied cells (table_cell_m) of the table points' projections.
+class TableCells
+{
+public:
+  TableCells(const CloudXYZ& table, const Eigen::Vector4f& plane, double cell_m)
+    : axes_(plane.head<3>()), cell_m_(static_cast<float>(cell_m))
+  {
+    for (const auto& p : table.points)
+      cells_.insert(key(p.getVector3fMap()));
+  }
+  bool seen(const Eigen::Vector3f& p) const { return cells_.count(key(p)) > 0; }
+
+private:
+  std::uint64_t key(const Eigen::Vector3f& p) const
+  {
+    const Eigen::Vector2f q = axes_.project(p) / cell_m_;
+    // Two's-complement bits of each cell index, side by side (no shift of a negative value).
+    const auto i = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(q.x())));
+    const auto j = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(q.y())));
+    return (static_cast<std::uint64_t>(i) << 32) | j;
+  }
+  TableAxes axes_;
+  float cell_m_;
+  std::unordered_set<std::uint64_t> cells_;
+};
+
+/// Nothing floats: a piece held up only by its neighbour (a pan's handle, a drill's chuck, a
+/// mug's handle) is part of it. A piece stands when its lowest seen points are near the table,
+/// or when the table straight under them was not seen (something nearer hides it: the object
+/// may stand there, as a box behind another does, or it rests on a piece below). Joins each
+/// piece that cannot stand to the neighbour it shares most border links with.
+void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
+                               const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableCells& table,
+                               const ConcaveSplitParams& params, Pieces& objects)
+{
+  const Eigen::Vector3f up = plane.head<3>().normalized();
+  auto heightOf = [&](const Eigen::Vector3f& p) { return up.dot(p) + plane[3] / plane.head<3>().norm(); };
+  std::map<std::size_t, float> lowest;
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    const std::size_t object = objects.find(static_cast<std::size_t>(piece_of[i]));
+    const float height = heightOf(points.points[i].getVector3fMap());
+    const auto found = lowest.find(object);
+    if (found == lowest.end() || height < found->second)
+      lowest[object] = height;
+  }
+  if (lowest.size() < 2)
+    return;
+  std::map<std::size_t, int> bottom_points, bottom_over_seen_table;
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    const std::size_t object = objects.find(static_cast<std::size_t>(piece_of[i]));
+    const Eigen::Vector3f p = points.points[i].getVector3fMap();
+    const float height = heightOf(p);
+    if (height > lowest[object] + static_cast<float>(params.bottom_band_m))
+      continue;
+    ++bottom_points[object];
+    bottom_over_seen_table[object] += table.seen(p - height * up) ? 1 : 0;
+  }
+  const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
+  for (const auto& [object, low] : lowest)
+  {
+    if (low <= static_cast<float>(params.standing_height_m) ||
+        static_cast<double>(bottom_over_seen_table[object]) <
+            params.floating_seen_fraction * static_cast<double>(bottom_points[object]))
+      continue;
+    std::map<std::size_t, int> border;
+    for (std::size_t i = 0; i < points.size(); ++i)
+    {
+      if (objects.find(static_cast<std::size_t>(piece_of[i])) != object)
+        continue;
+      for (const auto j : neighbours[i])
+      {
+        const std::size_t other = objects.find(static_cast<std::size_t>(piece_of[static_cast<std::size_t>(j)]));
+        if (other != object &&
+            (points.points[i].getVector3fMap() - points.points[static_cast<std::size_t>(j)].getVector3fMap()).squaredNorm() <=
+                link_radius_sq)
+          ++border[other];
+      }
+    }
+    if (border.empty())
+      continue;
+    const auto holder = std::max_element(border.begin(), border.end(),
+                                         [](const auto& a, const auto& b) { return a.second < b.second; });
+    objects.join(object, holder->first);
+  }
+}
+
+/// Splits one cluster; appends its pieces (indices into the full cloud) to `out`.
+void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eigen::Vector3f& viewpoint,
+                  const Eigen::Vector4f& plane, const TableCells& table, const ConcaveSplitParams& params,
+                  std::vector<pcl::PointIndices>& out)
+{
+  const Eigen::Vector3f up = plane.head<3>();
+  const std::size_t n = members.size();
+  const int k = std::min<int>(params.k_neighbours, static_cast<int>(n));
+  if (k < 3)
+  {
+    out.emplace_back();
+    out.back().indices = members;
+    return;
+  }
+  auto points = std::make_shared<CloudXYZ>();
+  points->reserve(n);
+  for (const auto i : members)
+    points->push_back(cloud.points[static_cast<std::size_t>(i)]);
+  pcl::search::KdTree<PointXYZ> tree(/*sorted=*/false);
+  tree.setInputCloud(points);
+
+  // One k-NN search per point serves the normal fit and the links.
+  std::vector<pcl::Indices> neighbours(n);
+  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
+  std::vector<float> squared_distances;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    tree.nearestKSearch(static_cast<pcl::index_t>(i), k, neighbours[i], squared_distances);
+    Eigen::Vector4f plane;
+    float curvature = 0.0f;
+    if (!pcl::computePointNormal(*points, neighbours[i], plane, curvature))
+      continue;
+    Eigen::Vector3f normal = plane.head<3>();
+    if (normal.dot(viewpoint - points->points[i].getVector3fMap()) < 0.0f)
+      normal = -normal;
+    normals[i] = normal;
+  }
+
+  // A link is a crease when it is concave and its normals differ by more than the noise on a
+  // flat face. Both ends of a crease link are crease points: they join nothing at first, so a
+  // single convex-looking link along a noisy crease cannot bridge two objects.
+  const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
+  const float flat_cosine = static_cast<float>(std::cos(params.concave_tolerance_rad));
+  std::vector<bool> on_crease(n, false);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const Eigen::Vector3f a = points->points[i].getVector3fMap();
+    for (const auto j_index : neighbours[i])
+    {
+      const auto j = static_cast<std::size_t>(j_index);
+      const Eigen::Vector3f offset = a - points->points[j].getVector3fMap();
+      if (j == i || offset.squaredNorm() > link_radius_sq)
+        continue;
+      const bool concave = (normals[i] - normals[j]).dot(offset) < 0.0f;
+      if (concave && normals[i].dot(normals[j]) < flat_cosine)
+        on_crease[i] = on_crease[j] = true;
+    }
+  }
+  Pieces pieces(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    if (on_crease[i])
+      continue;
+    const Eigen::Vector3f a = points->points[i].getVector3fMap();
+    for (const auto j_index : neighbours[i])
+    {
+      const auto j = static_cast<std::size_t>(j_index);
+      if (!on_crease[j] && (a - points->points[j].getVector3fMap()).squaredNorm() <= link_radius_sq)
+        pieces.join(i, j);
+    }
+  }
+
+  // Pieces of at least min_piece_points non-crease points are the objects; every other point
+  // (crease points, slivers) takes the piece most of its k neighbours belong to, pass by pass
+  // outward from the pieces.
+  constexpr int kUnassigned = -1;
+  std::map<std::size_t, int> piece_size;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!on_crease[i])
+      ++piece_size[pieces.find(i)];
+  std::map<std::size_t, int> piece_number;
+  for (const auto& [root, size] : piece_size)
+    if (size >= params.min_piece_points)
+      piece_number.emplace(root, static_cast<int>(piece_number.size()));
+  if (piece_number.size() <= 1)
+  {
+    out.emplace_back();
+    out.back().indices = members;
+    return;
+  }
+  std::vector<int> piece_of(n, kUnassigned);
+  for (std::size_t i = 0; i < n; ++i)
+    if (!on_crease[i])
+    {
+      const auto found = piece_number.find(pieces.find(i));
+      if (found != piece_number.end())
+        piece_of[i] = found->second;
+    }
+  std::vector<int> votes(piece_number.size());
+  for (bool changed = true; changed;)
+  {
+    changed = false;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      if (piece_of[i] != kUnassigned)
+        continue;
+      std::fill(votes.begin(), votes.end(), 0);
+      for (const auto j : neighbours[i])
+        if (piece_of[static_cast<std::size_t>(j)] != kUnassigned)
+          ++votes[static_cast<std::size_t>(piece_of[static_cast<std::size_t>(j)])];
+      const auto best = std::max_element(votes.begin(), votes.end());
+      if (*best > 0)
+      {
+        piece_of[i] = static_cast<int>(best - votes.begin());
+        changed = true;
+      }
+    }
+  }
+  int largest = 0;
+  for (const auto& [root, number] : piece_number)
+    if (piece_size[root] > piece_size[std::next(piece_number.begin(), largest)->first])
+      largest = number;
+  // Points cut off from every piece (an isolated sliver) stay with the largest piece of their
+  // cluster rather than vanish.
+  for (int& piece : piece_of)
+    piece = piece == kUnassigned ? largest : piece;
+  Pieces objects(piece_number.size());
+  joinInsidesToTheirContainer(*points, neighbours, normals, piece_of, params, objects);
+  joinPiecesThatCannotStand(*points, neighbours, piece_of, plane, table, params, objects);
+  std::map<std::size_t, pcl::PointIndices> by_object;
+  for (std::size_t i = 0; i < n; ++i)
+    by_object[objects.find(static_cast<std::size_t>(piece_of[i]))].indices.push_back(members[i]);
+  std::vector<pcl::PointIndices> result;
+  for (auto& [object, piece] : by_object)
+    result.push_back(std::move(piece));
+  for (auto& piece : result)
+    out.push_back(std::move(piece));
+}
+}  // namespace
+
+std::vector<pcl::PointIndices> splitAtConcaveCreases(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
+                                                     const Eigen::Vector3f& viewpoint, const Eigen::Vector4f& plane,
+                                                     const CloudXYZ& table, const ConcaveSplitParams& params)
+{
+  const TableCells table_cells(table, plane, params.table_cell_m);
+  std::vector<pcl::PointIndices> out;
+  for (const auto& cluster : clusters)
+    splitCluster(cloud, cluster.indices, viewpoint, plane, table_cells, params, out);
+  std::stable_sort(out.begin(), out.end(), [](const pcl::PointIndices& a, const pcl::PointIndices& b) {
+    return a.indices.size() > b.indices.size();
+  });
+  return out;
+}
+
+}  // namespace fast_grasp
