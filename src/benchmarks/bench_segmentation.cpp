@@ -354,13 +354,6 @@ int main(int argc, char** argv)
     for (std::size_t c = 0; c < result.clusters.size(); ++c)
       for (const int i : result.clusters[c].indices)
         cluster_of[static_cast<std::size_t>(i)] = static_cast<int>(c);
-    if (!dump_dir.empty() && std::getenv("FAST_GRASP_DUMP_POINTS"))
-    {
-      FILE* f = std::fopen((dump_dir + "/" + std::filesystem::path(file).stem().string() + ".txt").c_str(), "w");
-      for (std::size_t i = 0; i < sampled.size(); ++i)
-        std::fprintf(f, "%.4f %.4f %.4f %d %d\n", sampled[i].x, sampled[i].y, sampled[i].z, static_cast<int>(sampled[i].label), cluster_of[i]);
-      std::fclose(f);
-    }
     if (!dump_dir.empty())
       writeLabelImage(dump_dir + "/" + std::filesystem::path(file).stem().string() + ".ppm", sampled, cluster_of);
     Counts scene;
