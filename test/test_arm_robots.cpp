@@ -128,10 +128,10 @@ void expectShelfPickSolved(const std::string& robot)
   ompl::RNG::setSeed(11);
   const GraspExecutionParams p = robotParams(robot);
   RobotCollision collision = makeRobotCollision(p);
-  ArmScene scene = loadArmScene(sourcePath("config/benchmarks/shelf_pick.yaml"));
-  const Eigen::VectorXd home = p.robot.homePose(collision.kinematics().jointNames());
-  scene.start_joints = home;  // the scene's joint vectors are the UR5's
-  scene.seed_joints = home;
+  // Placed for this robot (benchmark_base_m), from its home pose (the file's joints are the UR5's).
+  const ArmScene scene =
+      sceneForRobot(loadArmScene(sourcePath("config/benchmarks/shelf_pick.yaml")), p.robot, collision.kinematics().jointNames());
+  EXPECT_EQ(scene.start_joints, p.robot.homePose(collision.kinematics().jointNames()));
   addSceneBoxes(scene, collision);
   const ArmMotionPlanner planner(collision);
   MotionPlanningParams motion = p.motion;
@@ -281,6 +281,24 @@ TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
   EXPECT_NEAR(p.link_padding_m, 0.005, 1e-12);
   EXPECT_NEAR(p.robot.home_pose_rad.at("shoulder_lift_joint"), -1.5708, 1e-9);
   EXPECT_THROW(robotParams("no_such_robot"), std::runtime_error);
+}
+
+TEST(RobotConfig, RobotPlannerParametersOverridePlannersYaml)
+{
+  // planners.yaml holds the UR5's RRTConnect range (Table 6.2); the LWR's file the appendix's
+  // Table II value, laid over it; untouched parameters stay planners.yaml's.
+  const GraspExecutionParams ur5 = robotParams(""), lwr = robotParams("lwr4");
+  EXPECT_EQ(ur5.motion.planner_params.at("RRTConnect").at("range"), "0.3125");
+  EXPECT_EQ(lwr.motion.planner_params.at("RRTConnect").at("range"), "0.6");
+  EXPECT_EQ(lwr.motion.planner_params.at("KPIECE").at("failed_expansion_score_factor"),
+            ur5.motion.planner_params.at("KPIECE").at("failed_expansion_score_factor"));
+  // The LWR stands 0.2 m further back in the benchmark scenes: the shelf is 0.2 m further away.
+  const ArmScene scene = loadArmScene(sourcePath("config/benchmarks/shelf_place.yaml"));
+  const RobotCollision collision = makeRobotCollision(lwr);
+  const ArmScene placed = sceneForRobot(scene, lwr.robot, collision.kinematics().jointNames());
+  EXPECT_NEAR(placed.start_pose.translation().x() - scene.start_pose.translation().x(), 0.2, 1e-12);
+  EXPECT_NEAR(placed.boxes.back().pose.translation().x() - scene.boxes.back().pose.translation().x(), 0.2, 1e-12);
+  EXPECT_EQ(placed.seed_joints, lwr.robot.homePose(collision.kinematics().jointNames()));
 }
 
 }  // namespace

@@ -195,13 +195,13 @@ int main(int argc, char** argv)
   fast_grasp::MotionPlanningParams base_params;
   try
   {
-    robot_params = fast_grasp::loadGraspExecutionParams(config_dir + "/arm.yaml", "", robot);
+    robot_params = fast_grasp::loadGraspExecutionParams(config_dir + "/arm.yaml", config_dir + "/planners.yaml", robot);
     if (!urdf.empty())
       robot_params.urdf_path = urdf;
     if (padding_m >= 0.0)
       robot_params.link_padding_m = padding_m;
     kin = fast_grasp::makeRobotCollision(robot_params).kinematics();
-    base_params.planner_params = fast_grasp::loadPlannerParameters(config_dir + "/planners.yaml");
+    base_params.planner_params = robot_params.motion.planner_params;  // planners.yaml + the robot's own
   }
   catch (const std::exception& e)
   {
@@ -226,18 +226,14 @@ int main(int argc, char** argv)
       std::fprintf(stderr, "%s\n", e.what());
       return 1;
     }
-    // The scenes' joint vectors are the UR5's: another arm starts at its home pose and seeds
-    // its IK there (the goal poses are the same Cartesian poses for every arm).
-    if (!robot_params.robot.home_pose_rad.empty())
+    // The scenes are laid out around the UR5: another arm stands at its benchmark_base_m,
+    // starts at its home pose and seeds its IK there (the same Cartesian poses for every arm).
+    const bool other_robot = scene.joints_robot != robot_params.robot.name;
+    scene = fast_grasp::sceneForRobot(scene, robot_params.robot, kin.jointNames());
+    if (other_robot && !scene.has_goal_pose)
     {
-      const Eigen::VectorXd home = robot_params.robot.homePose(kin.jointNames());
-      if (scene.seed_joints.size() != home.size())
-        scene.seed_joints = home;
-      if (!scene.has_start_pose && scene.start_joints.size() != home.size())
-        scene.start_joints = home;
-      scene.goal_joints.erase(std::remove_if(scene.goal_joints.begin(), scene.goal_joints.end(),
-                                             [&](const Eigen::VectorXd& q) { return q.size() != home.size(); }),
-                              scene.goal_joints.end());
+      std::printf("scene %s: skipped: its goal is a joint vector of another robot\n", scene_name.c_str());
+      continue;
     }
     fast_grasp::RobotCollision collision = fast_grasp::makeRobotCollision(robot_params);
     fast_grasp::addSceneBoxes(scene, collision);
