@@ -5,7 +5,9 @@
 // a CSV of every run, PNG bar/box plots (matplotlib) and <out>/benchmark.db, the logs converted
 // for Planner Arena by scripts/ompl_benchmark_db.py, are written. The last lines, one per
 // planner, read
-//   <planner> <scene>: solved P % median X ms      (narrow_passage: 3 s limit; others: the first limit)
+//   <planner> <scene>: solved P % median X ms (cpu Y ms)   (narrow_passage: 3 s limit; others: the first limit)
+// X is wall time as OMPL records it, Y the process CPU time of the same runs (a shared machine's
+// load inflates X, not Y); unsolved runs count at the limit in both.
 //
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
 //                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--robot ur5] [--urdf PATH]
@@ -25,6 +27,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -77,6 +80,16 @@ Stats stats(std::vector<double> v)
   return s;
 }
 
+/// This process's CPU time: each planner's benchmark runs in its own child process, so the
+/// difference across one run is that run's solve + simplification on however many cores it
+/// used (one: the planners are single-threaded), independent of the load beside it.
+double processCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 double property(const std::map<std::string, std::string>& run, const std::string& key, double fallback)
 {
   const auto it = run.find(key);
@@ -100,6 +113,7 @@ struct PlannerSummary
   Stats length_rad;   // simplified path length, solved runs
   double median_all_ms = 0.0;  // over all runs, unsolved counted at the time limit
   double median_solve_ms = 0.0;  // solve() alone (no simplification), same convention
+  double median_cpu_ms = 0.0;    // CPU time of solve + simplification, unsolved runs at the limit
 };
 
 const char* kPlotScript = R"PY(
@@ -210,7 +224,7 @@ int main(int argc, char** argv)
   }
 
   std::ofstream csv(out_dir + "/runs.csv");
-  csv << "scene,limit_s,planner,run,solved,time_s,length_rad\n";
+  csv << "scene,limit_s,planner,run,solved,time_s,length_rad,cpu_s\n";
   std::map<std::string, std::vector<PlannerSummary>> summary_lines;
   std::vector<std::string> ompl_logs;  // written by this run (the out dir may hold older ones)
   std::vector<std::string> end_to_end_lines;
@@ -280,8 +294,8 @@ int main(int argc, char** argv)
       std::printf("\n%s, max. %.0f s computing time, %d runs (Time: solve + simplify of solved runs; "
                   "path length in rad)\n",
                   scene_name.c_str(), limit, runs);
-      std::printf("  %-12s %8s %18s %18s %10s %10s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms",
-                  "solve ms");
+      std::printf("  %-12s %8s %18s %18s %10s %10s %10s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms",
+                  "solve ms", "cpu ms");
       std::vector<PlannerSummary> summaries;
       for (const std::string& name : planners)
       {
@@ -313,6 +327,12 @@ int main(int argc, char** argv)
           }
           p->setName(name);
           benchmark.addPlanner(p);
+          // Wall time is what OMPL records; on a shared machine it includes waiting for a core.
+          double cpu_at_start = 0.0;
+          benchmark.setPreRunEvent([&cpu_at_start](const ompl::base::PlannerPtr&) { cpu_at_start = processCpuSeconds(); });
+          benchmark.setPostRunEvent([&cpu_at_start](const ompl::base::PlannerPtr&, ompl::tools::Benchmark::RunProperties& run) {
+            run["cpu time REAL"] = std::to_string(processCpuSeconds() - cpu_at_start);
+          });
           ompl::tools::Benchmark::Request request(limit, 4096.0, static_cast<unsigned>(runs), 0.5, false, false, true);
           benchmark.benchmark(request);
           benchmark.saveResultsToFile((stem.str() + ".log").c_str());
@@ -325,7 +345,7 @@ int main(int argc, char** argv)
               out << (exact ? 1 : 0) << " " << property(run, "time REAL", limit) << " "
                   << property(run, "simplification time REAL", 0.0) << " "
                   << property(run, "simplified solution length REAL", property(run, "solution length REAL", 0.0))
-                  << "\n";
+                  << " " << property(run, "cpu time REAL", limit) << "\n";
             }
           out.close();
           std::fflush(stdout);
@@ -338,12 +358,12 @@ int main(int argc, char** argv)
           ompl_logs.push_back(stem.str() + ".log");
         PlannerSummary summary;
         summary.planner = name;
-        std::vector<double> times, lengths, all_ms, solve_ms;
+        std::vector<double> times, lengths, all_ms, solve_ms, cpu_ms;
         int solved = 0, index = 0, total = 0;
         std::ifstream in(runs_file);
         int exact = 0;
-        double solve_s = 0.0, simplify_s = 0.0, length = 0.0;
-        while (!crashed && in >> exact >> solve_s >> simplify_s >> length)
+        double solve_s = 0.0, simplify_s = 0.0, length = 0.0, cpu_s = 0.0;
+        while (!crashed && in >> exact >> solve_s >> simplify_s >> length >> cpu_s)
         {
           ++total;
           const double t = solve_s + simplify_s;
@@ -355,16 +375,18 @@ int main(int argc, char** argv)
           }
           all_ms.push_back(1e3 * (exact ? t : limit));
           solve_ms.push_back(1e3 * (exact ? solve_s : limit));
+          cpu_ms.push_back(1e3 * (exact ? cpu_s : limit));
           csv << scene_name << "," << limit << "," << name << "," << index++ << "," << exact << "," << t << ","
-              << length << "\n";
+              << length << "," << cpu_s << "\n";
         }
         std::remove(runs_file.c_str());
         if (crashed || total == 0)
         {
           for (int r = 0; r < runs; ++r)
-            csv << scene_name << "," << limit << "," << name << "," << r << ",0," << limit << ",0\n";
+            csv << scene_name << "," << limit << "," << name << "," << r << ",0," << limit << ",0," << limit << "\n";
           all_ms.assign(static_cast<std::size_t>(runs), 1e3 * limit);
           solve_ms = all_ms;
+          cpu_ms = all_ms;
           total = runs;
         }
         summary.solved_percent = 100.0 * solved / std::max(1, total);
@@ -372,9 +394,10 @@ int main(int argc, char** argv)
         summary.length_rad = stats(lengths);
         summary.median_all_ms = stats(all_ms).median;
         summary.median_solve_ms = stats(solve_ms).median;
-        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %10.1f %10.1f%s\n", summary.planner.c_str(),
+        summary.median_cpu_ms = stats(cpu_ms).median;
+        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %10.1f %10.1f %10.1f%s\n", summary.planner.c_str(),
                     summary.solved_percent, summary.time_s.mean, summary.time_s.sd, summary.length_rad.mean,
-                    summary.length_rad.sd, summary.median_all_ms, summary.median_solve_ms,
+                    summary.length_rad.sd, summary.median_all_ms, summary.median_solve_ms, summary.median_cpu_ms,
                     crashed ? "  (crashed in OMPL)" : "");
         std::fflush(stdout);
         summaries.push_back(summary);
@@ -442,7 +465,7 @@ int main(int argc, char** argv)
     std::printf("%s\n", line.c_str());
   for (const auto& entry : summary_lines)
     for (const PlannerSummary& s : entry.second)
-      std::printf("%s %s: solved %.1f %% median %.1f ms\n", s.planner.c_str(), entry.first.c_str(),
-                  s.solved_percent, s.median_all_ms);
+      std::printf("%s %s: solved %.1f %% median %.1f ms (cpu %.1f ms)\n", s.planner.c_str(), entry.first.c_str(),
+                  s.solved_percent, s.median_all_ms, s.median_cpu_ms);
   return 0;
 }
