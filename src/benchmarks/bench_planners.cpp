@@ -1,4 +1,5 @@
-// OMPL planner benchmark on the UR5 scenes of config/benchmarks/*.yaml, after the thesis's
+// OMPL planner benchmark on the scenes of config/benchmarks/*.yaml (laid out around the UR5;
+// another --robot stands at its benchmark_base_m and starts at its home pose), after the thesis's
 // Ch6.3 (Tables 6.3/6.4): per scene and time limit, every planner runs --runs times through
 // ompl::tools::Benchmark (one OMPL log per planner: each planner runs in a child process, so an
 // OMPL crash costs only its row), then a table (solved %, time mean (sd), path length mean (sd)),
@@ -159,7 +160,8 @@ int main(int argc, char** argv)
   bool check_only = false;
   static const char* const kUsage =
       "usage: bench_planners [--runs N] [--planners A,B,...] [--scenes S,...] [--limits SECONDS,...] [--out DIR]\n"
-      "                      [--config-dir DIR] [--urdf FILE] [--padding-m M] [--cartesian-step-m M]\n"
+      "                      [--config-dir DIR] [--robot ur5|lwr4|jaco] [--urdf FILE] [--padding-m M]\n"
+      "                      [--cartesian-step-m M]\n"
       "                      [--end-to-end PLANNER] [--check]\n"
       "  every OMPL planner on the thesis appendix scenes through ompl::tools::Benchmark (docs/benchmarks/)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
