@@ -44,6 +44,40 @@ Eigen::Isometry3d dhForward(const std::vector<Dh>& table, const Eigen::VectorXd&
   return t;
 }
 
+std::vector<Eigen::VectorXd> jointVectors(const std::vector<std::vector<double>>& rows)
+{
+  std::vector<Eigen::VectorXd> out;
+  for (const std::vector<double>& r : rows)
+    out.push_back(Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size())));
+  return out;
+}
+
+/// False when the IK found nothing; else checks that its first solution reaches `target`
+/// within the limits.
+bool expectReaches(const ArmKinematics& kin, const Eigen::Isometry3d& target, const std::vector<Eigen::VectorXd>& sols)
+{
+  if (sols.empty())
+    return false;
+  const Eigen::Isometry3d reached = kin.fk(sols.front());
+  EXPECT_LT((reached.translation() - target.translation()).norm(), 1e-4);
+  EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * target.linear()).angle(), 1e-4);
+  EXPECT_TRUE(kin.withinLimits(sols.front(), 1e-9));
+  return true;
+}
+
+/// The URDF chain's FK equals the DH table's at each q; the table takes q + dh_offset (the
+/// arm maker's joint angles where the URDF's zero differs).
+void expectMatchesDh(const ArmKinematics& chain, const std::vector<Dh>& table, const std::vector<Eigen::VectorXd>& qs,
+                     const Eigen::VectorXd& dh_offset)
+{
+  for (const Eigen::VectorXd& qi : qs)
+  {
+    const Eigen::Isometry3d urdf = chain.fk(qi), dh = dhForward(table, qi + dh_offset);
+    EXPECT_LT((urdf.translation() - dh.translation()).norm(), 1e-9) << qi.transpose();
+    EXPECT_LT((urdf.linear() - dh.linear()).norm(), 1e-9) << qi.transpose();
+  }
+}
+
 // KUKA LWR 4+ (urdf/lwr4_gripper_xtion.urdf's header).
 const std::vector<Dh> kLwr4 = { { 0.3105, 0, kPi / 2 }, { 0, 0, -kPi / 2 }, { 0.40, 0, -kPi / 2 }, { 0, 0, kPi / 2 },
                                 { 0.39, 0, kPi / 2 }, { 0, 0, -kPi / 2 }, { 0.078, 0, 0 } };
@@ -53,19 +87,9 @@ TEST(Lwr4, ForwardKinematicsMatchesDh)
   const GraspExecutionParams p = robotParams("lwr4");
   const ArmKinematics flange = ArmKinematics::fromUrdfFile(p.urdf_path, "base_link", "tool0");
   ASSERT_EQ(flange.dof(), 7u);
-  std::vector<Eigen::VectorXd> qs;
-  qs.push_back(Eigen::VectorXd::Zero(7));
-  Eigen::VectorXd q(7);
-  q << 0.3, -0.7, 1.1, 1.5, -0.4, 0.9, 2.0;
-  qs.push_back(q);
-  q << -2.0, 1.9, -2.5, -1.2, 2.7, -1.8, -0.6;
-  qs.push_back(q);
-  for (const Eigen::VectorXd& qi : qs)
-  {
-    const Eigen::Isometry3d urdf = flange.fk(qi), dh = dhForward(kLwr4, qi);
-    EXPECT_LT((urdf.translation() - dh.translation()).norm(), 1e-9) << qi.transpose();
-    EXPECT_LT((urdf.linear() - dh.linear()).norm(), 1e-9) << qi.transpose();
-  }
+  const std::vector<Eigen::VectorXd> qs = jointVectors(
+      { { 0, 0, 0, 0, 0, 0, 0 }, { 0.3, -0.7, 1.1, 1.5, -0.4, 0.9, 2.0 }, { -2.0, 1.9, -2.5, -1.2, 2.7, -1.8, -0.6 } });
+  expectMatchesDh(flange, kLwr4, qs, Eigen::VectorXd::Zero(7));
   // Stretched up: the flange 0.3105 + 0.40 + 0.39 + 0.078 = 1.1785 m above the base (the
   // appendix's "furthest reach 1178.5 mm").
   EXPECT_NEAR(flange.fk(Eigen::VectorXd::Zero(7)).translation().z(), 1.1785, 1e-9);
@@ -94,13 +118,9 @@ TEST(Lwr4, IkRoundTripsStayNearTheSeed)
     kin.wrapIntoLimits(seed);
     seed = seed.cwiseMax(kin.lowerLimits()).cwiseMin(kin.upperLimits());
     const std::vector<Eigen::VectorXd> sols = kin.ik(target, seed);
-    if (sols.empty())
+    if (!expectReaches(kin, target, sols))
       continue;
     ++solved;
-    const Eigen::Isometry3d reached = kin.fk(sols.front());
-    EXPECT_LT((reached.translation() - target.translation()).norm(), 1e-4);
-    EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * target.linear()).angle(), 1e-4);
-    EXPECT_TRUE(kin.withinLimits(sols.front(), 1e-9));
     EXPECT_LT((sols.front() - seed).cwiseAbs().maxCoeff(), 0.5);  // the nearby branch, not another
   }
   EXPECT_GE(solved, 49);
@@ -172,34 +192,18 @@ const std::vector<Dh> kJaco = { { 0.2755, 0, kPi / 2, -1, 0 },
                                 { -(kJacoK * 0.0741 + kJacoK * 0.0741), 0, kPi / 3, 1, -kPi },
                                 { -(kJacoK * 0.0741 + 0.16), 0, kPi, 1, kPi / 2 } };
 
-Eigen::VectorXd kinovaAngles(const Eigen::VectorXd& q)
-{
-  Eigen::VectorXd k = q;
-  k[1] += kPi;
-  k[2] += kPi;
-  return k;
-}
+const Eigen::VectorXd kKinovaAngleOffset = (Eigen::VectorXd(6) << 0.0, kPi, kPi, 0.0, 0.0, 0.0).finished();
 
 TEST(Jaco, ForwardKinematicsMatchesKinovaDh)
 {
   const GraspExecutionParams p = robotParams("jaco");
   const ArmKinematics hand = ArmKinematics::fromUrdfFile(p.urdf_path, "base_link", "jaco_end_effector");
   ASSERT_EQ(hand.dof(), 6u);
-  std::vector<Eigen::VectorXd> qs;
-  qs.push_back(Eigen::VectorXd::Zero(6));
-  Eigen::VectorXd q(6);
-  q << 0.3, -0.7, 1.1, 1.5, -0.4, 0.9;
-  qs.push_back(q);
-  q << -2.0, 1.9, -2.5, -1.2, 2.7, -3.0;
-  qs.push_back(q);
-  q << 3.1, 0.2, 0.4, 2.9, 1.6, -1.3;
-  qs.push_back(q);
-  for (const Eigen::VectorXd& qi : qs)
-  {
-    const Eigen::Isometry3d urdf = hand.fk(qi), dh = dhForward(kJaco, kinovaAngles(qi));
-    EXPECT_LT((urdf.translation() - dh.translation()).norm(), 1e-9) << qi.transpose();
-    EXPECT_LT((urdf.linear() - dh.linear()).norm(), 1e-9) << qi.transpose();
-  }
+  const std::vector<Eigen::VectorXd> qs = jointVectors({ { 0, 0, 0, 0, 0, 0 },
+                                                         { 0.3, -0.7, 1.1, 1.5, -0.4, 0.9 },
+                                                         { -2.0, 1.9, -2.5, -1.2, 2.7, -3.0 },
+                                                         { 3.1, 0.2, 0.4, 2.9, 1.6, -1.3 } });
+  expectMatchesDh(hand, kJaco, qs, kKinovaAngleOffset);
   // Stretched up (q = 0): the wrist's two 60 deg segments each climb D4 cos 30 deg and step
   // D4 sin 30 deg sideways, so the hand centre is D1 + D2 + D3 + 2 D4 cos 30 + D6 up and
   // 2 D4 sin 30 - e2 off the base axis, pointing up.
@@ -241,14 +245,7 @@ TEST(Jaco, IkRoundTripsThroughTheOffsetWrist)
   for (int i = 0; i < poses; ++i)
   {
     const Eigen::Isometry3d target = kin.fk(kin.randomConfiguration(rng));
-    const std::vector<Eigen::VectorXd> sols = kin.ik(target, home);
-    if (sols.empty())
-      continue;
-    ++solved;
-    const Eigen::Isometry3d reached = kin.fk(sols.front());
-    EXPECT_LT((reached.translation() - target.translation()).norm(), 1e-4);
-    EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * target.linear()).angle(), 1e-4);
-    EXPECT_TRUE(kin.withinLimits(sols.front(), 1e-9));
+    solved += expectReaches(kin, target, kin.ik(target, home)) ? 1 : 0;
   }
   EXPECT_GE(solved, 99);
 }
