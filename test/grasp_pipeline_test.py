@@ -325,7 +325,7 @@ class GraspPipelineTest(unittest.TestCase):
                     % (len(cls.known_hits), len(cls.known_hits), cases))
 
     def check_trajectory_to_grasp(self):
-        """Bag -> grasp -> UR5 trajectory: reaches the grasp via the pre-grasp, within the
+        """Bag -> grasp -> arm trajectory: reaches the grasp via the pre-grasp, within the
         joint, velocity and acceleration limits, gripper clear of the scene at 5 mm steps."""
         if not self.check_trajectory:
             self.skipTest("~check_trajectory is false")
@@ -361,8 +361,10 @@ class GraspPipelineTest(unittest.TestCase):
         grasp = array.grasps[int(match.group(1))]
         arm_config = rospy.get_param("~arm_config")
         arm = load_yaml(arm_config)
-        # The arm's chain and limits live in config/robots/<robot>.yaml (arm.yaml names the robot).
-        robot = load_yaml(os.path.join(os.path.dirname(arm_config), "robots", arm.get("robot", "ur5") + ".yaml"))
+        # The arm's chain and limits live in config/robots/<robot>.yaml (~robot, else the one
+        # arm.yaml names).
+        robot_name = rospy.get_param("~robot", "") or arm.get("robot", "ur5")
+        robot = load_yaml(os.path.join(os.path.dirname(arm_config), "robots", robot_name + ".yaml"))
         arm = dict(robot, **arm)
         chain = urdf_fk.UrdfChain(rospy.get_param("~urdf_file"), "base_link", arm.get("tip_link", "grasp_frame"))
         order = [traj.joint_names.index(n) for n in chain.names]
@@ -374,6 +376,9 @@ class GraspPipelineTest(unittest.TestCase):
         self.assertTrue(np.all(np.diff(t) > 0), "time_from_start must increase")
         lower = np.array([j["lower"] for j in chain.moving])
         upper = np.array([j["upper"] for j in chain.moving])
+        if "joint_limits_rad" in arm:  # the robot config narrows the URDF's (continuous joints: +-pi)
+            lower = np.maximum(lower, -np.array(arm["joint_limits_rad"]))
+            upper = np.minimum(upper, np.array(arm["joint_limits_rad"]))
         self.assertTrue(np.all(q >= lower - 1e-6) and np.all(q <= upper + 1e-6), "joint limits violated")
         vmax = np.array(arm["velocity_limit_rad_s"])
         amax = np.array(arm["acceleration_limit_rad_s2"])

@@ -25,16 +25,18 @@ GraspExecutionParams robotParams(const std::string& robot)
 struct Dh
 {
   double d, a, alpha;
+  double theta_sign = 1.0, theta_offset = 0.0;  // theta_i = sign * q_i + offset
 };
 
-/// Standard DH: T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
+/// Standard DH: T_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
 Eigen::Isometry3d dhForward(const std::vector<Dh>& table, const Eigen::VectorXd& q)
 {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   for (std::size_t i = 0; i < table.size(); ++i)
   {
     Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-    step.rotate(Eigen::AngleAxisd(q[static_cast<Eigen::Index>(i)], Eigen::Vector3d::UnitZ()));
+    const double theta = table[i].theta_sign * q[static_cast<Eigen::Index>(i)] + table[i].theta_offset;
+    step.rotate(Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitZ()));
     step.translate(Eigen::Vector3d(table[i].a, 0.0, table[i].d));
     step.rotate(Eigen::AngleAxisd(table[i].alpha, Eigen::Vector3d::UnitX()));
     t = t * step;
@@ -42,8 +44,42 @@ Eigen::Isometry3d dhForward(const std::vector<Dh>& table, const Eigen::VectorXd&
   return t;
 }
 
+std::vector<Eigen::VectorXd> jointVectors(const std::vector<std::vector<double>>& rows)
+{
+  std::vector<Eigen::VectorXd> out;
+  for (const std::vector<double>& r : rows)
+    out.push_back(Eigen::Map<const Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size())));
+  return out;
+}
+
+/// False when the IK found nothing; else checks that its first solution reaches `target`
+/// within the limits.
+bool expectReaches(const ArmKinematics& kin, const Eigen::Isometry3d& target, const std::vector<Eigen::VectorXd>& sols)
+{
+  if (sols.empty())
+    return false;
+  const Eigen::Isometry3d reached = kin.fk(sols.front());
+  EXPECT_LT((reached.translation() - target.translation()).norm(), 1e-4);
+  EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * target.linear()).angle(), 1e-4);
+  EXPECT_TRUE(kin.withinLimits(sols.front(), 1e-9));
+  return true;
+}
+
+/// The URDF chain's FK equals the DH table's at each q; the table takes q + dh_offset (the
+/// arm maker's joint angles where the URDF's zero differs).
+void expectMatchesDh(const ArmKinematics& chain, const std::vector<Dh>& table, const std::vector<Eigen::VectorXd>& qs,
+                     const Eigen::VectorXd& dh_offset)
+{
+  for (const Eigen::VectorXd& qi : qs)
+  {
+    const Eigen::Isometry3d urdf = chain.fk(qi), dh = dhForward(table, qi + dh_offset);
+    EXPECT_LT((urdf.translation() - dh.translation()).norm(), 1e-9) << qi.transpose();
+    EXPECT_LT((urdf.linear() - dh.linear()).norm(), 1e-9) << qi.transpose();
+  }
+}
+
 // KUKA LWR 4+ (urdf/lwr4_gripper_xtion.urdf's header).
-const std::vector<Dh> kLwr4 = { { 0.31, 0, kPi / 2 }, { 0, 0, -kPi / 2 }, { 0.40, 0, -kPi / 2 }, { 0, 0, kPi / 2 },
+const std::vector<Dh> kLwr4 = { { 0.3105, 0, kPi / 2 }, { 0, 0, -kPi / 2 }, { 0.40, 0, -kPi / 2 }, { 0, 0, kPi / 2 },
                                 { 0.39, 0, kPi / 2 }, { 0, 0, -kPi / 2 }, { 0.078, 0, 0 } };
 
 TEST(Lwr4, ForwardKinematicsMatchesDh)
@@ -51,22 +87,12 @@ TEST(Lwr4, ForwardKinematicsMatchesDh)
   const GraspExecutionParams p = robotParams("lwr4");
   const ArmKinematics flange = ArmKinematics::fromUrdfFile(p.urdf_path, "base_link", "tool0");
   ASSERT_EQ(flange.dof(), 7u);
-  std::vector<Eigen::VectorXd> qs;
-  qs.push_back(Eigen::VectorXd::Zero(7));
-  Eigen::VectorXd q(7);
-  q << 0.3, -0.7, 1.1, 1.5, -0.4, 0.9, 2.0;
-  qs.push_back(q);
-  q << -2.0, 1.9, -2.5, -1.2, 2.7, -1.8, -0.6;
-  qs.push_back(q);
-  for (const Eigen::VectorXd& qi : qs)
-  {
-    const Eigen::Isometry3d urdf = flange.fk(qi), dh = dhForward(kLwr4, qi);
-    EXPECT_LT((urdf.translation() - dh.translation()).norm(), 1e-9) << qi.transpose();
-    EXPECT_LT((urdf.linear() - dh.linear()).norm(), 1e-9) << qi.transpose();
-  }
-  // Stretched up: the flange 0.31 + 0.40 + 0.39 + 0.078 = 1.178 m above the base (the
+  const std::vector<Eigen::VectorXd> qs = jointVectors(
+      { { 0, 0, 0, 0, 0, 0, 0 }, { 0.3, -0.7, 1.1, 1.5, -0.4, 0.9, 2.0 }, { -2.0, 1.9, -2.5, -1.2, 2.7, -1.8, -0.6 } });
+  expectMatchesDh(flange, kLwr4, qs, Eigen::VectorXd::Zero(7));
+  // Stretched up: the flange 0.3105 + 0.40 + 0.39 + 0.078 = 1.1785 m above the base (the
   // appendix's "furthest reach 1178.5 mm").
-  EXPECT_NEAR(flange.fk(Eigen::VectorXd::Zero(7)).translation().z(), 1.178, 1e-9);
+  EXPECT_NEAR(flange.fk(Eigen::VectorXd::Zero(7)).translation().z(), 1.1785, 1e-9);
   // Limits from the robot config: +-170 / +-120 deg.
   ArmKinematics kin = flange;
   ASSERT_TRUE(applyLimits(p, kin).empty());
@@ -92,13 +118,9 @@ TEST(Lwr4, IkRoundTripsStayNearTheSeed)
     kin.wrapIntoLimits(seed);
     seed = seed.cwiseMax(kin.lowerLimits()).cwiseMin(kin.upperLimits());
     const std::vector<Eigen::VectorXd> sols = kin.ik(target, seed);
-    if (sols.empty())
+    if (!expectReaches(kin, target, sols))
       continue;
     ++solved;
-    const Eigen::Isometry3d reached = kin.fk(sols.front());
-    EXPECT_LT((reached.translation() - target.translation()).norm(), 1e-4);
-    EXPECT_LT(Eigen::AngleAxisd(reached.linear().transpose() * target.linear()).angle(), 1e-4);
-    EXPECT_TRUE(kin.withinLimits(sols.front(), 1e-9));
     EXPECT_LT((sols.front() - seed).cwiseAbs().maxCoeff(), 0.5);  // the nearby branch, not another
   }
   EXPECT_GE(solved, 49);
@@ -119,15 +141,17 @@ TEST(Lwr4, FoldedWristHitsTheUpperArm)
   EXPECT_FALSE(collision.inSelfCollision(p.robot.homePose(collision.kinematics().jointNames()), &why)) << why;
 }
 
-TEST(Lwr4, ShelfPickIsSolved)
+/// The shelf pick (config/benchmarks/shelf_pick.yaml) from the robot's home pose: solved, ending
+/// at the goal pose, every state along the path clear of the unpadded robot.
+void expectShelfPickSolved(const std::string& robot)
 {
   ompl::RNG::setSeed(11);
-  const GraspExecutionParams p = robotParams("lwr4");
+  const GraspExecutionParams p = robotParams(robot);
   RobotCollision collision = makeRobotCollision(p);
-  ArmScene scene = loadArmScene(sourcePath("config/benchmarks/shelf_pick.yaml"));
-  const Eigen::VectorXd home = p.robot.homePose(collision.kinematics().jointNames());
-  scene.start_joints = home;  // the scene's joint vectors are the UR5's
-  scene.seed_joints = home;
+  // Placed for this robot (benchmark_base_m), from its home pose (the file's joints are the UR5's).
+  const ArmScene scene =
+      sceneForRobot(loadArmScene(sourcePath("config/benchmarks/shelf_pick.yaml")), p.robot, collision.kinematics().jointNames());
+  EXPECT_EQ(scene.start_joints, p.robot.homePose(collision.kinematics().jointNames()));
   addSceneBoxes(scene, collision);
   const ArmMotionPlanner planner(collision);
   MotionPlanningParams motion = p.motion;
@@ -155,6 +179,96 @@ TEST(Lwr4, ShelfPickIsSolved)
   }
 }
 
+
+TEST(Lwr4, ShelfPickIsSolved) { expectShelfPickSolved("lwr4"); }
+
+// Kinova JACO (j2n6), Kinova's DH table (urdf/jaco_gripper_xtion.urdf's header), in Kinova's
+// joint angles Q = q + (0, pi, pi, 0, 0, 0).
+const double kJacoK = std::sin(kPi / 6.0) / std::sin(kPi / 3.0);
+const std::vector<Dh> kJaco = { { 0.2755, 0, kPi / 2, -1, 0 },
+                                { 0, 0.41, kPi, 1, -kPi / 2 },
+                                { -0.0098, 0, kPi / 2, 1, kPi / 2 },
+                                { -(0.2073 + kJacoK * 0.0741), 0, kPi / 3, 1, 0 },
+                                { -(kJacoK * 0.0741 + kJacoK * 0.0741), 0, kPi / 3, 1, -kPi },
+                                { -(kJacoK * 0.0741 + 0.16), 0, kPi, 1, kPi / 2 } };
+
+const Eigen::VectorXd kKinovaAngleOffset = (Eigen::VectorXd(6) << 0.0, kPi, kPi, 0.0, 0.0, 0.0).finished();
+
+TEST(Jaco, ForwardKinematicsMatchesKinovaDh)
+{
+  const GraspExecutionParams p = robotParams("jaco");
+  const ArmKinematics hand = ArmKinematics::fromUrdfFile(p.urdf_path, "base_link", "jaco_end_effector");
+  ASSERT_EQ(hand.dof(), 6u);
+  const std::vector<Eigen::VectorXd> qs = jointVectors({ { 0, 0, 0, 0, 0, 0 },
+                                                         { 0.3, -0.7, 1.1, 1.5, -0.4, 0.9 },
+                                                         { -2.0, 1.9, -2.5, -1.2, 2.7, -3.0 },
+                                                         { 3.1, 0.2, 0.4, 2.9, 1.6, -1.3 } });
+  expectMatchesDh(hand, kJaco, qs, kKinovaAngleOffset);
+  // Stretched up (q = 0): the wrist's two 60 deg segments each climb D4 cos 30 deg and step
+  // D4 sin 30 deg sideways, so the hand centre is D1 + D2 + D3 + 2 D4 cos 30 + D6 up and
+  // 2 D4 sin 30 - e2 off the base axis, pointing up.
+  const Eigen::Isometry3d up = hand.fk(Eigen::VectorXd::Zero(6));
+  EXPECT_NEAR(up.translation().z(), 0.2755 + 0.41 + 0.2073 + 2 * 0.0741 * std::cos(kPi / 6) + 0.16, 1e-9);
+  EXPECT_NEAR(up.translation().y(), 2 * 0.0741 * std::sin(kPi / 6) - 0.0098, 1e-9);
+  EXPECT_NEAR(up.translation().x(), 0.0, 1e-9);
+  EXPECT_NEAR(up.linear().col(2).z(), 1.0, 1e-9);
+  // tool0 (the flange) is D6 = 0.16 m before the hand centre, on the same axis.
+  const ArmKinematics flange = ArmKinematics::fromUrdfFile(p.urdf_path, "base_link", "tool0");
+  for (const Eigen::VectorXd& qi : qs)
+  {
+    const Eigen::Isometry3d f = flange.fk(qi), h = hand.fk(qi);
+    EXPECT_LT((f.translation() + 0.16 * f.linear().col(2) - h.translation()).norm(), 1e-9);
+    EXPECT_LT((f.linear() - h.linear()).norm(), 1e-9);
+  }
+  // Limits from the robot config: continuous joints +-pi, joint 2 +-130 deg, joint 3 +-145 deg.
+  ArmKinematics kin = flange;
+  ASSERT_TRUE(applyLimits(p, kin).empty());
+  EXPECT_NEAR(kin.upperLimits()[0], kPi, 1e-9);
+  EXPECT_NEAR(kin.upperLimits()[1], 130.0 * kPi / 180.0, 1e-6);
+  EXPECT_NEAR(kin.lowerLimits()[2], -145.0 * kPi / 180.0, 1e-6);
+  EXPECT_NEAR(kin.velocityLimits()[0], 36.0 * kPi / 180.0, 1e-6);
+  EXPECT_NEAR(kin.velocityLimits()[5], 48.0 * kPi / 180.0, 1e-6);
+}
+
+TEST(Jaco, IkRoundTripsThroughTheOffsetWrist)
+{
+  // The JACO's wrist axes do not meet in a point: no closed-form wrist decoupling, the
+  // numerical solver must handle it. Random reachable poses, seeded at the home pose (far
+  // from the answer): every solution reaches the pose, within the limits.
+  const GraspExecutionParams p = robotParams("jaco");
+  const RobotCollision collision = makeRobotCollision(p);
+  const ArmKinematics& kin = collision.kinematics();
+  const Eigen::VectorXd home = p.robot.homePose(kin.jointNames());
+  std::mt19937 rng(5);
+  int solved = 0;
+  const int poses = 100;
+  for (int i = 0; i < poses; ++i)
+  {
+    const Eigen::Isometry3d target = kin.fk(kin.randomConfiguration(rng));
+    solved += expectReaches(kin, target, kin.ik(target, home)) ? 1 : 0;
+  }
+  EXPECT_GE(solved, 99);
+}
+
+TEST(Jaco, FoldedElbowPutsTheHandOnTheShoulder)
+{
+  const GraspExecutionParams p = robotParams("jaco");
+  const RobotCollision collision = makeRobotCollision(p);
+  // Every non-adjacent pair is checked (none touches in the stretched pose).
+  EXPECT_TRUE(collision.defaultAllowedPairs().empty());
+  Eigen::VectorXd folded(6);
+  // Elbow folded to its limit (145 deg) and the forearm turned a quarter turn: the wrist
+  // bends the hand back down past the upper arm onto the shoulder.
+  folded << 0.0, 0.0, 2.53, 1.57, 1.5, 0.0;
+  std::string why;
+  EXPECT_TRUE(collision.inSelfCollision(folded, &why));
+  EXPECT_EQ(why.rfind("self:", 0), 0u) << why;
+  EXPECT_FALSE(collision.inSelfCollision(Eigen::VectorXd::Zero(6), &why)) << why;
+  EXPECT_FALSE(collision.inSelfCollision(p.robot.homePose(collision.kinematics().jointNames()), &why)) << why;
+}
+
+TEST(Jaco, ShelfPickIsSolved) { expectShelfPickSolved("jaco"); }
+
 TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
 {
   const GraspExecutionParams p = robotParams("");
@@ -164,6 +278,24 @@ TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
   EXPECT_NEAR(p.link_padding_m, 0.005, 1e-12);
   EXPECT_NEAR(p.robot.home_pose_rad.at("shoulder_lift_joint"), -1.5708, 1e-9);
   EXPECT_THROW(robotParams("no_such_robot"), std::runtime_error);
+}
+
+TEST(RobotConfig, RobotPlannerParametersOverridePlannersYaml)
+{
+  // planners.yaml holds the UR5's RRTConnect range (Table 6.2); the LWR's file the appendix's
+  // Table II value, laid over it; untouched parameters stay planners.yaml's.
+  const GraspExecutionParams ur5 = robotParams(""), lwr = robotParams("lwr4");
+  EXPECT_EQ(ur5.motion.planner_params.at("RRTConnect").at("range"), "0.3125");
+  EXPECT_EQ(lwr.motion.planner_params.at("RRTConnect").at("range"), "0.6");
+  EXPECT_EQ(lwr.motion.planner_params.at("KPIECE").at("failed_expansion_score_factor"),
+            ur5.motion.planner_params.at("KPIECE").at("failed_expansion_score_factor"));
+  // The LWR stands 0.2 m further back in the benchmark scenes: the shelf is 0.2 m further away.
+  const ArmScene scene = loadArmScene(sourcePath("config/benchmarks/shelf_place.yaml"));
+  const RobotCollision collision = makeRobotCollision(lwr);
+  const ArmScene placed = sceneForRobot(scene, lwr.robot, collision.kinematics().jointNames());
+  EXPECT_NEAR(placed.start_pose.translation().x() - scene.start_pose.translation().x(), 0.2, 1e-12);
+  EXPECT_NEAR(placed.boxes.back().pose.translation().x() - scene.boxes.back().pose.translation().x(), 0.2, 1e-12);
+  EXPECT_EQ(placed.seed_joints, lwr.robot.homePose(collision.kinematics().jointNames()));
 }
 
 }  // namespace

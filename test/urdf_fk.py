@@ -47,11 +47,13 @@ class UrdfChain:
             axis_el = joint.find("axis")
             axis = [float(v) for v in (axis_el.get("xyz") if axis_el is not None else "1 0 0").split()]
             limit = joint.find("limit")
+            # A continuous joint's <limit> has no position bounds: it turns without end.
+            bound = "inf" if joint.get("type") == "continuous" else None
             self.joints.append({
                 "name": joint.get("name"), "type": joint.get("type"),
                 "origin": homogeneous(rpy_matrix(*rpy), xyz), "axis": axis,
-                "lower": float(limit.get("lower")) if limit is not None else None,
-                "upper": float(limit.get("upper")) if limit is not None else None,
+                "lower": float(limit.get("lower", "-" + bound if bound else None)) if limit is not None else None,
+                "upper": float(limit.get("upper", bound)) if limit is not None else None,
                 "velocity": float(limit.get("velocity")) if limit is not None else None})
         self.moving = [j for j in self.joints if j["type"] in ("revolute", "continuous", "prismatic")]
         self.names = [j["name"] for j in self.moving]

@@ -158,6 +158,9 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
     throw std::runtime_error("arm config '" + arm_yaml + "': velocity/acceleration limits must be > 0");
   if (!planners_yaml.empty())
     p.motion.planner_params = loadPlannerParameters(planners_yaml);
+  for (const auto& planner : p.robot.planner_parameters)
+    for (const auto& kv : planner.second)
+      p.motion.planner_params[planner.first][kv.first] = kv.second;
   return p;
 }
 
@@ -720,6 +723,7 @@ ArmScene loadArmScene(const std::string& yaml_path)
   {
     readScalar(root, "name", scene.name);
     readScalar(root, "description", scene.description);
+    readScalar(root, "joints_robot", scene.joints_robot);
     scene.seed_joints = readVector(root, "seed_joints", yaml_path);
     if (scene.seed_joints.size() == 0)
     {
@@ -776,6 +780,25 @@ void addSceneBoxes(const ArmScene& scene, RobotCollision& collision)
 {
   for (const ArmScene::Box& box : scene.boxes)
     collision.addBox(box.name, box.size_m, box.pose);
+}
+
+ArmScene sceneForRobot(const ArmScene& scene, const RobotConfig& robot, const std::vector<std::string>& joint_names)
+{
+  ArmScene out = scene;
+  for (ArmScene::Box& box : out.boxes)
+    box.pose.translation() -= robot.benchmark_base_m;
+  out.start_pose.translation() -= robot.benchmark_base_m;
+  out.goal_pose.translation() -= robot.benchmark_base_m;
+  if (scene.joints_robot != robot.name && !robot.home_pose_rad.empty())
+  {
+    const Eigen::VectorXd home = robot.homePose(joint_names);
+    out.joints_robot = robot.name;
+    out.seed_joints = home;
+    if (!out.has_start_pose)
+      out.start_joints = home;
+    out.goal_joints.clear();
+  }
+  return out;
 }
 
 bool resolveScene(const ArmScene& scene, const ArmMotionPlanner& planner, const MotionPlanningParams& motion,

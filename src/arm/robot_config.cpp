@@ -94,6 +94,25 @@ RobotConfig loadRobotConfig(const std::string& yaml_path)
       robot.link_padding_m = root["link_padding_m"].as<double>();
     if (root["object_contact_links"])
       robot.object_contact_links = root["object_contact_links"].as<std::vector<std::string>>();
+    const Eigen::VectorXd base = readVector(root, "benchmark_base_m", yaml_path);
+    if (base.size() == 3)
+      robot.benchmark_base_m = base;
+    else if (base.size() != 0)
+      throw std::runtime_error("robot config '" + yaml_path + "': 'benchmark_base_m' needs 3 entries (x, y, z)");
+    if (root["planner_parameters"])
+    {
+      if (!root["planner_parameters"].IsMap())
+        throw std::runtime_error("robot config '" + yaml_path + "': 'planner_parameters' must map planner names");
+      for (const auto& planner : root["planner_parameters"])
+      {
+        auto& entry = robot.planner_parameters[planner.first.as<std::string>()];
+        if (!planner.second.IsMap())
+          throw std::runtime_error("robot config '" + yaml_path + "': 'planner_parameters." +
+                                   planner.first.as<std::string>() + "' must map parameter names");
+        for (const auto& kv : planner.second)
+          entry[kv.first.as<std::string>()] = kv.second.as<std::string>();
+      }
+    }
     if (root["home_pose"])
     {
       robot.home_pose_path = resolve(root["home_pose"].as<std::string>(), folder);

@@ -21,7 +21,7 @@
 namespace
 {
 const char* const kUsage =
-    "usage: bench_ik [--robot ur5|lwr4] [--poses N] [--urdf PATH] [--base LINK] [--tip LINK]\n"
+    "usage: bench_ik [--robot ur5|lwr4|jaco] [--poses N] [--urdf PATH] [--base LINK] [--tip LINK]\n"
     "                [--timeout-ms T] [--seed S]\n"
     "  IK on N random reachable poses (FK of random joint vectors); last line 'ik solved: P % median: X ms'\n";
 }  // namespace

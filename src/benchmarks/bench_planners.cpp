@@ -1,11 +1,14 @@
-// OMPL planner benchmark on the UR5 scenes of config/benchmarks/*.yaml, after the thesis's
+// OMPL planner benchmark on the scenes of config/benchmarks/*.yaml (laid out around the UR5;
+// another --robot stands at its benchmark_base_m and starts at its home pose), after the thesis's
 // Ch6.3 (Tables 6.3/6.4): per scene and time limit, every planner runs --runs times through
 // ompl::tools::Benchmark (one OMPL log per planner: each planner runs in a child process, so an
 // OMPL crash costs only its row), then a table (solved %, time mean (sd), path length mean (sd)),
 // a CSV of every run, PNG bar/box plots (matplotlib) and <out>/benchmark.db, the logs converted
 // for Planner Arena by scripts/ompl_benchmark_db.py, are written. The last lines, one per
 // planner, read
-//   <planner> <scene>: solved P % median X ms      (narrow_passage: 3 s limit; others: the first limit)
+//   <planner> <scene>: solved P % median X ms (cpu Y ms)   (narrow_passage: 3 s limit; others: the first limit)
+// X is wall time as OMPL records it, Y the process CPU time of the same runs (a shared machine's
+// load inflates X, not Y); unsolved runs count at the limit in both.
 //
 // Usage: bench_planners [--runs 30] [--planners RRTConnect,BiTRRT,...] [--scenes narrow_passage,...]
 //                       [--limits 3,10] [--out DIR] [--config-dir DIR] [--robot ur5] [--urdf PATH]
@@ -25,6 +28,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -77,6 +81,16 @@ Stats stats(std::vector<double> v)
   return s;
 }
 
+/// This process's CPU time: each planner's benchmark runs in its own child process, so the
+/// difference across one run is that run's solve + simplification on however many cores it
+/// used (one: the planners are single-threaded), independent of the load beside it.
+double processCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 double property(const std::map<std::string, std::string>& run, const std::string& key, double fallback)
 {
   const auto it = run.find(key);
@@ -100,6 +114,7 @@ struct PlannerSummary
   Stats length_rad;   // simplified path length, solved runs
   double median_all_ms = 0.0;  // over all runs, unsolved counted at the time limit
   double median_solve_ms = 0.0;  // solve() alone (no simplification), same convention
+  double median_cpu_ms = 0.0;    // CPU time of solve + simplification, unsolved runs at the limit
 };
 
 const char* kPlotScript = R"PY(
@@ -145,7 +160,8 @@ int main(int argc, char** argv)
   bool check_only = false;
   static const char* const kUsage =
       "usage: bench_planners [--runs N] [--planners A,B,...] [--scenes S,...] [--limits SECONDS,...] [--out DIR]\n"
-      "                      [--config-dir DIR] [--urdf FILE] [--padding-m M] [--cartesian-step-m M]\n"
+      "                      [--config-dir DIR] [--robot ur5|lwr4|jaco] [--urdf FILE] [--padding-m M]\n"
+      "                      [--cartesian-step-m M]\n"
       "                      [--end-to-end PLANNER] [--check]\n"
       "  every OMPL planner on the thesis appendix scenes through ompl::tools::Benchmark (docs/benchmarks/)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
@@ -195,13 +211,13 @@ int main(int argc, char** argv)
   fast_grasp::MotionPlanningParams base_params;
   try
   {
-    robot_params = fast_grasp::loadGraspExecutionParams(config_dir + "/arm.yaml", "", robot);
+    robot_params = fast_grasp::loadGraspExecutionParams(config_dir + "/arm.yaml", config_dir + "/planners.yaml", robot);
     if (!urdf.empty())
       robot_params.urdf_path = urdf;
     if (padding_m >= 0.0)
       robot_params.link_padding_m = padding_m;
     kin = fast_grasp::makeRobotCollision(robot_params).kinematics();
-    base_params.planner_params = fast_grasp::loadPlannerParameters(config_dir + "/planners.yaml");
+    base_params.planner_params = robot_params.motion.planner_params;  // planners.yaml + the robot's own
   }
   catch (const std::exception& e)
   {
@@ -210,7 +226,7 @@ int main(int argc, char** argv)
   }
 
   std::ofstream csv(out_dir + "/runs.csv");
-  csv << "scene,limit_s,planner,run,solved,time_s,length_rad\n";
+  csv << "scene,limit_s,planner,run,solved,time_s,length_rad,cpu_s\n";
   std::map<std::string, std::vector<PlannerSummary>> summary_lines;
   std::vector<std::string> ompl_logs;  // written by this run (the out dir may hold older ones)
   std::vector<std::string> end_to_end_lines;
@@ -226,18 +242,14 @@ int main(int argc, char** argv)
       std::fprintf(stderr, "%s\n", e.what());
       return 1;
     }
-    // The scenes' joint vectors are the UR5's: another arm starts at its home pose and seeds
-    // its IK there (the goal poses are the same Cartesian poses for every arm).
-    if (!robot_params.robot.home_pose_rad.empty())
+    // The scenes are laid out around the UR5: another arm stands at its benchmark_base_m,
+    // starts at its home pose and seeds its IK there (the same Cartesian poses for every arm).
+    const bool other_robot = scene.joints_robot != robot_params.robot.name;
+    scene = fast_grasp::sceneForRobot(scene, robot_params.robot, kin.jointNames());
+    if (other_robot && !scene.has_goal_pose)
     {
-      const Eigen::VectorXd home = robot_params.robot.homePose(kin.jointNames());
-      if (scene.seed_joints.size() != home.size())
-        scene.seed_joints = home;
-      if (!scene.has_start_pose && scene.start_joints.size() != home.size())
-        scene.start_joints = home;
-      scene.goal_joints.erase(std::remove_if(scene.goal_joints.begin(), scene.goal_joints.end(),
-                                             [&](const Eigen::VectorXd& q) { return q.size() != home.size(); }),
-                              scene.goal_joints.end());
+      std::printf("scene %s: skipped: its goal is a joint vector of another robot\n", scene_name.c_str());
+      continue;
     }
     fast_grasp::RobotCollision collision = fast_grasp::makeRobotCollision(robot_params);
     fast_grasp::addSceneBoxes(scene, collision);
@@ -284,8 +296,8 @@ int main(int argc, char** argv)
       std::printf("\n%s, max. %.0f s computing time, %d runs (Time: solve + simplify of solved runs; "
                   "path length in rad)\n",
                   scene_name.c_str(), limit, runs);
-      std::printf("  %-12s %8s %18s %18s %10s %10s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms",
-                  "solve ms");
+      std::printf("  %-12s %8s %18s %18s %10s %10s %10s\n", "Planner", "solved%", "Time (s)", "Path length", "median ms",
+                  "solve ms", "cpu ms");
       std::vector<PlannerSummary> summaries;
       for (const std::string& name : planners)
       {
@@ -317,6 +329,12 @@ int main(int argc, char** argv)
           }
           p->setName(name);
           benchmark.addPlanner(p);
+          // Wall time is what OMPL records; on a shared machine it includes waiting for a core.
+          double cpu_at_start = 0.0;
+          benchmark.setPreRunEvent([&cpu_at_start](const ompl::base::PlannerPtr&) { cpu_at_start = processCpuSeconds(); });
+          benchmark.setPostRunEvent([&cpu_at_start](const ompl::base::PlannerPtr&, ompl::tools::Benchmark::RunProperties& run) {
+            run["cpu time REAL"] = std::to_string(processCpuSeconds() - cpu_at_start);
+          });
           ompl::tools::Benchmark::Request request(limit, 4096.0, static_cast<unsigned>(runs), 0.5, false, false, true);
           benchmark.benchmark(request);
           benchmark.saveResultsToFile((stem.str() + ".log").c_str());
@@ -329,7 +347,7 @@ int main(int argc, char** argv)
               out << (exact ? 1 : 0) << " " << property(run, "time REAL", limit) << " "
                   << property(run, "simplification time REAL", 0.0) << " "
                   << property(run, "simplified solution length REAL", property(run, "solution length REAL", 0.0))
-                  << "\n";
+                  << " " << property(run, "cpu time REAL", limit) << "\n";
             }
           out.close();
           std::fflush(stdout);
@@ -342,12 +360,12 @@ int main(int argc, char** argv)
           ompl_logs.push_back(stem.str() + ".log");
         PlannerSummary summary;
         summary.planner = name;
-        std::vector<double> times, lengths, all_ms, solve_ms;
+        std::vector<double> times, lengths, all_ms, solve_ms, cpu_ms;
         int solved = 0, index = 0, total = 0;
         std::ifstream in(runs_file);
         int exact = 0;
-        double solve_s = 0.0, simplify_s = 0.0, length = 0.0;
-        while (!crashed && in >> exact >> solve_s >> simplify_s >> length)
+        double solve_s = 0.0, simplify_s = 0.0, length = 0.0, cpu_s = 0.0;
+        while (!crashed && in >> exact >> solve_s >> simplify_s >> length >> cpu_s)
         {
           ++total;
           const double t = solve_s + simplify_s;
@@ -359,16 +377,18 @@ int main(int argc, char** argv)
           }
           all_ms.push_back(1e3 * (exact ? t : limit));
           solve_ms.push_back(1e3 * (exact ? solve_s : limit));
+          cpu_ms.push_back(1e3 * (exact ? cpu_s : limit));
           csv << scene_name << "," << limit << "," << name << "," << index++ << "," << exact << "," << t << ","
-              << length << "\n";
+              << length << "," << cpu_s << "\n";
         }
         std::remove(runs_file.c_str());
         if (crashed || total == 0)
         {
           for (int r = 0; r < runs; ++r)
-            csv << scene_name << "," << limit << "," << name << "," << r << ",0," << limit << ",0\n";
+            csv << scene_name << "," << limit << "," << name << "," << r << ",0," << limit << ",0," << limit << "\n";
           all_ms.assign(static_cast<std::size_t>(runs), 1e3 * limit);
           solve_ms = all_ms;
+          cpu_ms = all_ms;
           total = runs;
         }
         summary.solved_percent = 100.0 * solved / std::max(1, total);
@@ -376,9 +396,10 @@ int main(int argc, char** argv)
         summary.length_rad = stats(lengths);
         summary.median_all_ms = stats(all_ms).median;
         summary.median_solve_ms = stats(solve_ms).median;
-        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %10.1f %10.1f%s\n", summary.planner.c_str(),
+        summary.median_cpu_ms = stats(cpu_ms).median;
+        std::printf("  %-12s %7.1f%% %9.3f (%6.3f) %9.2f (%6.2f) %10.1f %10.1f %10.1f%s\n", summary.planner.c_str(),
                     summary.solved_percent, summary.time_s.mean, summary.time_s.sd, summary.length_rad.mean,
-                    summary.length_rad.sd, summary.median_all_ms, summary.median_solve_ms,
+                    summary.length_rad.sd, summary.median_all_ms, summary.median_solve_ms, summary.median_cpu_ms,
                     crashed ? "  (crashed in OMPL)" : "");
         std::fflush(stdout);
         summaries.push_back(summary);
@@ -446,7 +467,7 @@ int main(int argc, char** argv)
     std::printf("%s\n", line.c_str());
   for (const auto& entry : summary_lines)
     for (const PlannerSummary& s : entry.second)
-      std::printf("%s %s: solved %.1f %% median %.1f ms\n", s.planner.c_str(), entry.first.c_str(),
-                  s.solved_percent, s.median_all_ms);
+      std::printf("%s %s: solved %.1f %% median %.1f ms (cpu %.1f ms)\n", s.planner.c_str(), entry.first.c_str(),
+                  s.solved_percent, s.median_all_ms, s.median_cpu_ms);
   return 0;
 }

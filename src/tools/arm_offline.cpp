@@ -151,7 +151,7 @@ int main(int argc, char** argv)
   pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
   static const char* const kUsage =
       "usage: arm_offline --bag FILE [--algorithm principal_axis|cshape|boundary|concavity] [--frame N] [--gripper G]\n"
-      "                   [--arm-config FILE] [--robot ur5|lwr4] [--planner NAME] [--max-grasps N] [--explain-grasp N]\n"
+      "                   [--arm-config FILE] [--robot ur5|lwr4|jaco] [--planner NAME] [--max-grasps N] [--explain-grasp N]\n"
       "                   [--first-camera-only] [--verbose]\n"
       "  bag frame -> grasps -> the ArmPlanner's scene -> planGraspMotion, without ROS\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);

@@ -136,6 +136,7 @@ struct ArmScene
   std::string name;
   std::string description;
   std::vector<Box> boxes;
+  std::string joints_robot = "ur5";  // the robot (config/robots/) the joint vectors below are for
   Eigen::VectorXd seed_joints;   // IK seed for poses (default: the UR5 home pose)
   Eigen::VectorXd start_joints;  // either start_joints ...
   bool has_start_pose = false;   // ... or a grasp-frame start pose solved by IK
@@ -150,6 +151,10 @@ struct ArmScene
 /// Throws std::runtime_error naming the file and key when the scene is malformed.
 ArmScene loadArmScene(const std::string& yaml_path);
 void addSceneBoxes(const ArmScene& scene, RobotCollision& collision);
+/// The scene seen from a robot whose base stands at `robot_base_m` in the scene's frame
+/// (RobotConfig::benchmark_base_m): boxes and poses shifted by -robot_base_m. Joint vectors
+/// of another robot (scene.joints_robot != robot.name) are replaced by the robot's home pose.
+ArmScene sceneForRobot(const ArmScene& scene, const RobotConfig& robot, const std::vector<std::string>& joint_names);
 /// Start and goal joint vectors of the scene: poses are solved by IK (the start nearest to the
 /// seed; every distinct valid goal solution, nearest to the start first). False with `why`
 /// when the start is invalid or no goal is valid under `motion` (collision, constraint).

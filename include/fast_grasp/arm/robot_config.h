@@ -27,6 +27,12 @@ struct RobotConfig
   Eigen::VectorXd acceleration_limit_rad_s2;  // empty: 2 rad/s^2 per joint
   double link_padding_m = 0.005;
   std::vector<std::string> object_contact_links = { "left_finger_link", "right_finger_link" };
+  /// Where this robot's base stands in the benchmark scenes (config/benchmarks/, laid out
+  /// around the UR5 at the origin), m: an arm of longer reach stands further back.
+  Eigen::Vector3d benchmark_base_m = Eigen::Vector3d::Zero();
+  /// OMPL planner parameters for this arm, planner -> parameter -> value, laid over
+  /// config/planners.yaml's (a range tuned for one arm's joint space is not another's).
+  std::map<std::string, std::map<std::string, std::string>> planner_parameters;
 
   /// Home pose in the order of `joint_names`; throws std::runtime_error naming a missing joint.
   Eigen::VectorXd homePose(const std::vector<std::string>& joint_names) const;
