@@ -367,6 +367,8 @@ def format_report(rows, sampler, minutes, rate_hz, achieved_hz, warm_up_s, load_
         lines.append("%-24s %7d %9d %7d %10d %9d %11d  %s%s" % (
             row["stage"], row["inputs"], row["processed"], row["out"], row["superseded"], row["unmatched"],
             row["unexplained"], dropped, ("; notes " + notes) if notes else ""))
+    lines.append("superseded: never reached the callback, a newer frame was queued first (input queues 1-2, the "
+                 "latest frame wins); dropped: processed without output, by ~status reason")
     lines.append("")
     lines.append("resident memory (VmRSS, MB) over time, warm-up %.0f s:" % warm_up_s)
     growths = {}

@@ -4,13 +4,13 @@
 screenshot that must show the object cloud, the grasp markers and the robot where they are.
 
 The displays and topics are the shipped config's; only what a pixel check needs is changed in a
-test copy: a fixed orbit view (TEST_VIEW), the left dock hidden, and the displays that would
-cover everything (raw cloud, table, scene, grid, normals, next view, arm planner markers)
+test copy: a fixed orbit view (TEST_VIEW) and the displays that would cover everything (raw cloud, table, scene, grid, normals, next view, arm planner markers)
 switched off. Known 3-D points (the object cloud's centroid, the best grasp's position, the
 robot links' origins from tf) are projected with the orbit camera into the render area (found
 in the screenshot as the bounding box of the background colour) and each region must hold
 pixels of the expected kind: the Object display's flat red, the gripper marker's blue, any
-non-background colour for the robot; a point in empty space must stay background. The
+non-background colour for the robot; points in empty space (above the object, beside the
+robot) must stay background. The
 screenshot is kept at $ROS_HOME/test_results/fast_grasp/rviz_view.png."""
 import math
 import os
@@ -42,6 +42,8 @@ TEST_VIEW = {"Distance": 1.9, "Focal Point": {"X": 0.25, "Y": 0.0, "Z": 0.25}, "
 HIDDEN = ("Raw cloud", "Table", "Scene", "Grid", "Normals", "Next view (Ch3.2.3)", "Arm planner", "TF")
 ROBOT_LINKS = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_2_link", "gripper_palm_link")
 OBJECT_RGB = (255, 40, 40)
+# Controls: nothing is there (0.3 m above the object; beside the arm at its home pose).
+EMPTY_POINTS = ([0.5, 0.0, 0.55], [0.2, 0.3, 0.1])
 
 
 def test_config(shipped_path, out_path):
@@ -61,7 +63,7 @@ def test_config(shipped_path, out_path):
     assert current["Class"] == "rviz/Orbit", current
     current.update(TEST_VIEW)
     current["Target Frame"] = "base_link"
-    config["Window Geometry"].update({"Hide Left Dock": True, "Hide Right Dock": True, "X": 0, "Y": 0})
+    config["Window Geometry"].update({"X": 0, "Y": 0})
     background = tuple(int(c) for c in str(manager["Global Options"]["Background Color"]).split(";"))
     with open(out_path, "w") as f:
         yaml.safe_dump(config, f)
@@ -221,9 +223,10 @@ class RvizViewTest(unittest.TestCase):
             drawn = np.sum(np.abs(patch - background).sum(axis=2) > 30)
             if drawn < 10:
                 failures.append("robot: %s at %s has %d drawn pixels" % (link, pixel, drawn))
-        empty = self.region(image, project([0.6, -0.7, 0.9], box)[0], half=6)
-        if np.sum(np.abs(empty - background).sum(axis=2) > 30) > 0:
-            failures.append("empty space around (0.6, -0.7, 0.9) is drawn on: the check would see anything")
+        for point in EMPTY_POINTS:
+            empty = self.region(image, project(point, box)[0], half=6)
+            if np.sum(np.abs(empty - background).sum(axis=2) > 30) > 0:
+                failures.append("empty space around %s is drawn on: the checks would see anything" % (point,))
         return failures
 
     def test_object_grasp_and_robot_drawn(self):
