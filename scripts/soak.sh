@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# usage: scripts/soak.sh MINUTES [--rate HZ] [--port PORT]
+# usage: bash scripts/soak.sh MINUTES [--rate HZ] [--port PORT]
 # Soaks the full pipeline (launch/soak.launch: perception, five grasp planners, arm planner) with
 # the bundled bag frames at HZ (default 30) for MINUTES and prints per stage frames in, out,
 # superseded and dropped by their ~status reason, the managers' memory over time and the targets

@@ -11,7 +11,8 @@ give a clear status and leave the pipeline working again without a restart:
   go through to grasps;
 - the planning manager killed (SIGKILL, as a crash in a planner would): its /diagnostics go
   silent while perception keeps reporting, roslaunch respawns it, the bonded loaders reload
-  the planners, and the frames after that get grasps and an arm trajectory again.
+  the planners, and the frames after that get grasps and an arm trajectory again;
+- the grasp planner's loader killed: the nodelet is unloaded (bond) and loaded again.
 
 The 20 M-point cloud (down-sampled, not rejected) is in perception_bad_input.py."""
 import io
@@ -26,6 +27,7 @@ import numpy as np
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
+from nodelet.srv import NodeletList
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
 import soak  # noqa: E402
@@ -75,7 +77,9 @@ class PipelineFaultsTest(unittest.TestCase):
 
     # -- helpers ---------------------------------------------------------------------------
     def play_until(self, condition, what, timeout_s=RECOVERY_TIMEOUT_S, rate_hz=RATE_HZ):
-        """Plays frames until condition() holds; fails naming `what` and the latest statuses."""
+        """Plays frames until condition() holds; fails naming `what`, the latest statuses and
+        the stages that published nothing since the first frame played here."""
+        first = self.player.publish_one()
         deadline = time.monotonic() + timeout_s
         period = 1.0 / rate_hz
         while time.monotonic() < deadline:
@@ -84,7 +88,10 @@ class PipelineFaultsTest(unittest.TestCase):
             with self.monitor.lock:
                 if condition():
                     return
-        self.fail("%s not within %.0f s; latest statuses: %s" % (what, timeout_s, self.latest_statuses()))
+        with self.monitor.lock:
+            silent = [s.name for s in self.stages if not self.outputs_since(s.name, first)]
+        self.fail("%s not within %.0f s; no output since from %s; loaded planners %s; latest statuses: %s"
+                  % (what, timeout_s, silent, self.loaded_planners(), self.latest_statuses()))
 
     def latest_statuses(self):
         with self.monitor.lock:
@@ -154,14 +161,56 @@ class PipelineFaultsTest(unittest.TestCase):
         rospy.loginfo("tf stopped: preprocess said %s", said[:200])
         first = self.player.publish_one()
         returned = time.monotonic()
-        self.play_until(lambda: self.outputs_since("preprocess", first) and self.all_planners_answered_since(first),
-                        "grasps from every planner after tf returned")
-        rospy.loginfo("tf returned: grasps from every planner %.1f s later", time.monotonic() - returned)
+        self.play_until(lambda: self.outputs_since("preprocess", first), "a preprocessed cloud after tf returned")
+        preprocessed = time.monotonic()
+        self.play_until(lambda: self.all_planners_answered_since(first), "grasps from every planner after tf returned")
+        rospy.loginfo("tf returned: a preprocessed cloud %.1f s later, grasps from every planner %.1f s later",
+                      preprocessed - returned, time.monotonic() - returned)
+
+    def test_04_planner_loader_killed(self):
+        # The grasp planner's `nodelet load` process dies: the manager unloads the nodelet when
+        # the bond times out, the respawned loader loads it again (until then its load attempts
+        # fail: the name is taken); the other planners never stop.
+        loader = "/grasp_planner"
+        pid = soak.manager_pid(loader)
+        self.assertIsNotNone(pid, "no pid for %s" % loader)
+        self.assertIn(loader, self.loaded_planners())
+        os.kill(pid, signal.SIGKILL)
+        killed_at = time.monotonic()
+        with self.monitor.lock:
+            others_before = len(self.stage["cshape_planner"].statuses)
+        self.play_until(lambda: loader not in self.loaded_planners(), "%s unloaded by its manager" % loader,
+                        rate_hz=10.0)
+        unloaded_at = time.monotonic()
+        self.play_until(lambda: loader in self.loaded_planners(), "%s loaded again" % loader, rate_hz=10.0)
+        reloaded_at = time.monotonic()
+        first_after = self.player.publish_one()
+        self.play_until(lambda: self.outputs_since("grasp_planner", first_after) and
+                        self.outputs_since("arm_planner", first_after),
+                        "grasps and a trajectory after the grasp planner was reloaded")
+        with self.monitor.lock:
+            self.assertGreater(len(self.stage["cshape_planner"].statuses), others_before)
+        rospy.loginfo("grasp planner loader killed: unloaded after %.1f s, loaded again after %.1f s, grasps and a "
+                      "trajectory after %.1f s", unloaded_at - killed_at, reloaded_at - killed_at,
+                      time.monotonic() - killed_at)
+
+    @staticmethod
+    def loaded_planners():
+        """Nodelets loaded in the planning manager (its ~list service); [] while it is down."""
+        try:
+            return rospy.ServiceProxy("/fast_grasp_planning_manager/list", NodeletList)().nodelets
+        except (rospy.ServiceException, rospy.ROSException):
+            return []
 
     def test_03_planning_manager_killed(self):
         manager = "/fast_grasp_planning_manager"
         pid = soak.manager_pid(manager)
         self.assertIsNotNone(pid, "no pid for %s" % manager)
+        # Every loader's bond to this manager has formed (they loaded minutes ago). A loader that
+        # loaded its nodelet a second before the manager died, before the first heartbeats, was
+        # seen to stay orphaned: it never reloaded (NOTES.md). So this fault comes before the
+        # loader one, not right after a reload.
+        self.assertEqual(sorted(self.loaded_planners()), sorted("/" + n for n in soak.PLANNERS + ("arm_planner",)))
         first = self.player.publish_one()
         self.play_until(lambda: self.outputs_since("arm_planner", first), "a trajectory before the kill")
         os.kill(pid, signal.SIGKILL)
