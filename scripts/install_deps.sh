@@ -34,7 +34,8 @@ PACKAGES=(
   # bench_planners' bar and box plots
   python3-matplotlib
 )
-if [ "${FAST_GRASP_NO_RVIZ:-0}" != "1" ]; then PACKAGES+=(rviz); fi
+# rviz_view.test runs rviz under Xvfb and screenshots it with ImageMagick's import.
+if [ "${FAST_GRASP_NO_RVIZ:-0}" != "1" ]; then PACKAGES+=(rviz xvfb imagemagick); fi
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -11,7 +11,8 @@ BIN_DIR = None
 HERE = os.path.dirname(os.path.abspath(__file__))
 EXECUTABLES = ["grasp_offline", "arm_offline", "render_bag", "scene_camera", "bench_ik", "bench_planners",
                "bench_perception", "bench_segmentation", "bench_grasps", "bench_grasp_motions"]
-SCRIPTS = ["evaluate_grasps_physics.py", "evaluate_grasps.py", "ompl_benchmark_db.py", "count_test_results.py"]
+SCRIPTS = ["evaluate_grasps_physics.py", "evaluate_grasps.py", "ompl_benchmark_db.py", "count_test_results.py",
+           "soak.py", "soak.sh"]
 
 
 def run(command):
@@ -36,7 +37,8 @@ class CommandLineTest(unittest.TestCase):
     def test_scripts(self):
         for name in SCRIPTS:
             with self.subTest(name=name):
-                self.check(["/usr/bin/python3", os.path.join(HERE, "..", "scripts", name)])
+                interpreter = "/bin/bash" if name.endswith(".sh") else "/usr/bin/python3"
+                self.check([interpreter, os.path.join(HERE, "..", "scripts", name)])
 
 
 if __name__ == "__main__":

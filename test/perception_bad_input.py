@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """rostest node for perception_bad_input.test: feeds hand-made clouds to the perception
 nodelets and asserts on their ~status. Every bad input (empty, all NaN, infinite coordinates,
-5 million points, unknown frame, no plane, no cluster, object out of reach) must give a clear
-status and the next good cloud must be processed again. Also checks zero-copy: the cloud a
+60 million points, unknown frame, no plane, no cluster, object out of reach) must give a clear
+status and the next good cloud must be processed again; a 20 million point cloud is read with
+a coarser stride and processed. Also checks zero-copy: the cloud a
 downstream nodelet receives has the very address the upstream one published."""
 import os
 import sys
@@ -146,13 +147,30 @@ class PerceptionBadInputTest(unittest.TestCase):
         points[1::50, 0] = -np.inf
         self.assert_status(factory.make_cloud(points), 'cloud_preprocess', 'WARN: ', 'infinite')
 
-    def test_04_five_million_points(self):
-        huge = np.zeros((5000000, 3), dtype=np.float32)
-        huge[:, 2] = 0.6
+    def test_04_twenty_million_points_downsampled(self):
+        # A 5000 x 4000 organised cloud of the good scene (tiled): read with a coarser stride
+        # (max_sampled_points), not rejected, and the whole chain still finds the object.
+        scene = factory.base_to_camera(np.concatenate([factory.table(), factory.box(0.5, 0.0, 0.06, 0.06, 0.10)]))
+        width, height = 5000, 4000
+        tiled = np.tile(scene, (width * height // len(scene) + 1, 1))[:width * height]
+        huge = factory.make_cloud(tiled, width=width, height=height)
+        del tiled
         started = time.time()
-        self.assert_status(factory.make_cloud(huge, width=2500, height=2000), 'cloud_preprocess', 'ERROR: ',
-                           'too large')
-        rospy.loginfo('5M-point cloud rejected and recovered in %.2f s', time.time() - started)
+        status = self.publish_and_wait(huge, NODELETS)
+        del huge
+        rospy.loginfo('20M-point cloud processed in %.2f s: %s', time.time() - started, status)
+        self.assertTrue(status['cloud_preprocess'].startswith('WARN: '), status['cloud_preprocess'])
+        self.assertIn('down-sampled', status['cloud_preprocess'])
+        self.assertIn('20000000 points', status['cloud_preprocess'])
+        for name in ('table_segmentation', 'normal_estimation'):
+            self.assertTrue(status[name].startswith('OK: '), '%s: %s' % (name, status[name]))
+        self.assert_good_cloud_processed()
+
+    def test_04_too_large_for_any_camera(self):
+        # Beyond max_input_points (50 M) the header alone is enough to refuse: no data needed.
+        cloud = factory.make_cloud(np.zeros((0, 3)))
+        cloud.width, cloud.height = 10000, 6000
+        self.assert_status(cloud, 'cloud_preprocess', 'ERROR: ', 'too large')
 
     def test_05_unknown_frame(self):
         cloud = self.good_cloud()

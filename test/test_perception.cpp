@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -185,6 +186,62 @@ TEST(CloudPreprocess, OrganisedStrideSamplesEveryOtherPixel)
   params.pixel_stride = 1;
   result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
   EXPECT_EQ(result.cloud->size(), 48u);
+}
+
+TEST(CloudPreprocess, OversizeOrganisedCloudIsReadWithACoarserStride)
+{
+  // 50 x 40 = 2000 pixels, all in reach; at most 100 may be sampled. Stride 2 gives 25 x 20 =
+  // 500, too many; the smallest stride that fits is 5 (10 x 8 = 80; 4 gives 13 x 10 = 130).
+  pcl::PointCloud<pcl::PointXYZRGB> raw(50, 40);
+  for (std::size_t i = 0; i < raw.size(); ++i)
+  {
+    raw.points[i].x = 0.3f + 0.001f * static_cast<float>(i % 50);
+    raw.points[i].y = 0.001f * static_cast<float>(i / 50);
+    raw.points[i].z = 0.0f;
+  }
+  PreprocessParams params;
+  params.leaf_size_m = 0.0;
+  params.pixel_stride = 2;
+  params.max_sampled_points = 100;
+  PreprocessResult result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  EXPECT_TRUE(result.downsampled);
+  EXPECT_EQ(result.sampling_stride, 5u);
+  EXPECT_EQ(result.cloud->size(), 80u);
+  EXPECT_EQ(result.finite_points, 80u);
+  EXPECT_NE(result.reason.find("down-sampled"), std::string::npos) << result.reason;
+  // Pixel (5, 10) is sampled, (4, 10) is not.
+  const auto has = [&](float x, float y) {
+    return std::any_of(result.cloud->begin(), result.cloud->end(),
+                       [&](const PointXYZ& p) { return std::abs(p.x - x) < 1e-6f && std::abs(p.y - y) < 1e-6f; });
+  };
+  EXPECT_TRUE(has(0.305f, 0.010f));
+  EXPECT_FALSE(has(0.304f, 0.010f));
+
+  // Within the bound nothing changes and nothing is noted.
+  params.max_sampled_points = 500;
+  result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(result.ok);
+  EXPECT_FALSE(result.downsampled);
+  EXPECT_EQ(result.sampling_stride, 2u);
+  EXPECT_EQ(result.cloud->size(), 500u);
+  EXPECT_TRUE(result.reason.empty()) << result.reason;
+}
+
+TEST(CloudPreprocess, OversizeUnorganisedCloudKeepsEveryNthPoint)
+{
+  CloudXYZ raw;
+  for (int i = 0; i < 1000; ++i)
+    raw.push_back(PointXYZ(0.3f + 0.0001f * static_cast<float>(i), 0.0f, 0.0f));
+  PreprocessParams params;
+  params.leaf_size_m = 0.0;
+  params.max_sampled_points = 300;  // 1000 / 300 -> every 4th point: 250
+  const PreprocessResult result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  EXPECT_TRUE(result.downsampled);
+  EXPECT_EQ(result.sampling_stride, 4u);
+  ASSERT_EQ(result.cloud->size(), 250u);
+  EXPECT_NEAR(result.cloud->points[1].x, 0.3f + 0.0004f, 1e-6f);
 }
 
 TEST(CloudPreprocess, RawBufferViewMatchesThePclPath)

@@ -51,6 +51,8 @@ std::string CloudPreprocessNodelet::readParameters(ros::NodeHandle& pnh)
   pnh.param("pixel_stride", params_.pixel_stride, params_.pixel_stride);
   int max_input_points = static_cast<int>(params_.max_input_points);
   pnh.param("max_input_points", max_input_points, max_input_points);
+  int max_sampled_points = static_cast<int>(params_.max_sampled_points);
+  pnh.param("max_sampled_points", max_sampled_points, max_sampled_points);
   pnh.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
 
   std::string bad;
@@ -58,6 +60,8 @@ std::string CloudPreprocessNodelet::readParameters(ros::NodeHandle& pnh)
     bad = "reach_centre_m must have 3 elements";
   else if (max_input_points < 1)
     bad = "max_input_points must be >= 1";
+  else if (max_sampled_points < 1)
+    bad = "max_sampled_points must be >= 1";
   else if (base_frame_.empty())
     bad = "base_frame must not be empty";
   else if (!(tf_timeout_s_ >= 0.0))
@@ -66,6 +70,7 @@ std::string CloudPreprocessNodelet::readParameters(ros::NodeHandle& pnh)
   {
     params_.reach_centre_m = Eigen::Vector3d(reach_centre[0], reach_centre[1], reach_centre[2]).cast<float>();
     params_.max_input_points = static_cast<std::size_t>(max_input_points);
+    params_.max_sampled_points = static_cast<std::size_t>(max_sampled_points);
     // The core validates the rest; probe it with a one-point cloud.
     pcl::PointCloud<pcl::PointXYZ> probe;
     probe.push_back(pcl::PointXYZ(0.0f, 0.0f, 0.0f));
@@ -84,7 +89,7 @@ std::string CloudPreprocessNodelet::readParameters(ros::NodeHandle& pnh)
 void CloudPreprocessNodelet::advertiseOutputs(ros::NodeHandle& pnh)
 {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
-  output_pub_ = advertise<pcl::PointCloud<pcl::PointXYZ>>(pnh, "output", 1);
+  output_pub_ = advertise<pcl::PointCloud<pcl::PointXYZ>>(pnh, "output", kOutputQueueSize);
 }
 
 std::string CloudPreprocessNodelet::checkMessage(const sensor_msgs::PointCloud2& msg) const
@@ -180,7 +185,8 @@ void CloudPreprocessNodelet::process(const InputConstPtr& input)
   std::ostringstream summary;
   summary << result.input_points << " raw points (" << result.finite_points << " finite, " << result.in_reach_points
           << " sampled in reach) -> " << output->size() << " points in " << base_frame_;
-  if (result.infinite_points > 0)
+  // A note (down-sampled, infinite coordinates dropped) is something the user can act on.
+  if (!result.reason.empty())
     status_.warn(summary.str() + "; " + result.reason);
   else
     status_.ok(summary.str());

@@ -71,8 +71,8 @@ std::string NormalEstimationNodelet::readParameters(ros::NodeHandle& pnh)
 void NormalEstimationNodelet::advertiseOutputs(ros::NodeHandle& pnh)
 {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, *nh_);
-  output_pub_ = advertise<CloudNormal>(pnh, "output", 1);
-  downsampled_pub_ = advertise<CloudNormal>(pnh, "downsampled", 1);
+  output_pub_ = advertise<CloudNormal>(pnh, "output", kOutputQueueSize);
+  downsampled_pub_ = advertise<CloudNormal>(pnh, "downsampled", kOutputQueueSize);
   normal_markers_pub_ = pnh.advertise<visualization_msgs::Marker>("normal_markers", 1);
 }
 

@@ -108,10 +108,10 @@ std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
 
 void TableSegmentationNodelet::advertiseOutputs(ros::NodeHandle& pnh)
 {
-  object_pub_ = advertise<CloudXYZ>(pnh, "object", 1);
-  scene_pub_ = advertise<CloudXYZ>(pnh, "scene", 1);
-  table_pub_ = advertise<CloudXYZ>(pnh, "table", 1);
-  segmented_scene_pub_ = advertise<fast_grasp::SegmentedScene>(pnh, "segmented_scene", 1);
+  object_pub_ = advertise<CloudXYZ>(pnh, "object", kOutputQueueSize);
+  scene_pub_ = advertise<CloudXYZ>(pnh, "scene", kOutputQueueSize);
+  table_pub_ = advertise<CloudXYZ>(pnh, "table", kOutputQueueSize);
+  segmented_scene_pub_ = advertise<fast_grasp::SegmentedScene>(pnh, "segmented_scene", kOutputQueueSize);
 }
 
 void TableSegmentationNodelet::process(const InputConstPtr& msg)

@@ -19,6 +19,8 @@ std::string validateParams(const PreprocessParams& params)
     return "leaf_size_m must be >= 0 and finite";
   if (params.pixel_stride < 1)
     return "pixel_stride must be >= 1";
+  if (params.max_sampled_points < 1)
+    return "max_sampled_points must be >= 1";
   if (!(params.min_z_m < params.max_z_m))
     return "min_z_m must be below max_z_m";
   if (!params.reach_centre_m.allFinite())
@@ -76,6 +78,26 @@ private:
   const RawCloudView& view_;
 };
 
+std::size_t ceilDiv(std::size_t a, std::size_t b) { return (a + b - 1) / b; }
+
+// The stride actually used: pixel_stride for an organised cloud (1 for an unorganised one),
+// raised to the smallest value whose sampled count fits max_sampled_points.
+std::size_t samplingStride(std::size_t width, std::size_t height, bool organised, const PreprocessParams& params)
+{
+  if (!organised)
+    return std::max<std::size_t>(1, ceilDiv(width, params.max_sampled_points));
+  std::size_t stride = static_cast<std::size_t>(params.pixel_stride);
+  const std::size_t sampled = ceilDiv(height, stride) * ceilDiv(width, stride);
+  if (sampled <= params.max_sampled_points)
+    return stride;
+  // sqrt(width * height / max) undershoots the answer by at most a few steps (the rounding up).
+  const double ratio = static_cast<double>(width) * static_cast<double>(height) / params.max_sampled_points;
+  stride = std::max(stride, static_cast<std::size_t>(std::sqrt(ratio)));
+  while (ceilDiv(height, stride) * ceilDiv(width, stride) > params.max_sampled_points)
+    ++stride;
+  return stride;
+}
+
 std::string validateView(const RawCloudView& view)
 {
   if (view.width == 0 || view.height == 0)
@@ -119,9 +141,12 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
     why << "cloud too large: " << raw.size() << " points exceeds max_input_points " << params.max_input_points;
     return fail(why.str());
   }
-  const std::size_t stride = raw.organised() ? static_cast<std::size_t>(params.pixel_stride) : 1;
   const std::size_t width = raw.width();
   const std::size_t height = raw.height();
+  const std::size_t stride = samplingStride(width, height, raw.organised(), params);
+  const std::size_t row_stride = raw.organised() ? stride : 1;
+  result.sampling_stride = stride;
+  result.downsampled = stride > (raw.organised() ? static_cast<std::size_t>(params.pixel_stride) : 1);
 
   const Eigen::Matrix3f rotation = camera_to_base.linear();
   const Eigen::Vector3f translation = camera_to_base.translation();
@@ -130,10 +155,11 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
   const float max_z = static_cast<float>(std::min(params.max_z_m, 1e30));
 
   auto in_reach = std::make_shared<CloudXYZ>();
-  in_reach->reserve(raw.size() / (stride * stride) + 1);
+  const std::size_t sampled = ceilDiv(height, row_stride) * ceilDiv(width, stride);
+  in_reach->reserve(sampled);
   // Only the sampled pixels are read (a quarter of them with stride 2); a frame whose sampled
   // pixels are all invalid is useless anyway.
-  for (std::size_t row = 0; row < height; row += stride)
+  for (std::size_t row = 0; row < height; row += row_stride)
   {
     for (std::size_t col = 0; col < width; col += stride)
     {
@@ -154,7 +180,6 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
   if (result.finite_points == 0)
   {
     std::ostringstream why;
-    const std::size_t sampled = ((height + stride - 1) / stride) * ((width + stride - 1) / stride);
     why << "no finite point among " << sampled << " sampled of " << raw.size() << " (" << result.infinite_points
         << " infinite, " << sampled - result.infinite_points << " NaN)";
     return fail(why.str());
@@ -190,12 +215,16 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
   output->header.stamp = stamp;
   result.cloud = output;
   result.ok = true;
-  if (result.infinite_points > 0)
+  std::ostringstream note;
+  if (result.downsampled)
   {
-    std::ostringstream note;
-    note << result.infinite_points << " points with infinite coordinates dropped";
-    result.reason = note.str();
+    note << "down-sampled: " << raw.size() << " points would give more than max_sampled_points "
+         << params.max_sampled_points << " at pixel_stride " << params.pixel_stride << ", reading every " << stride
+         << (raw.organised() ? "-th row and column" : "-th point");
   }
+  if (result.infinite_points > 0)
+    note << (result.downsampled ? "; " : "") << result.infinite_points << " points with infinite coordinates dropped";
+  result.reason = note.str();
   return result;
 }
 }  // namespace

@@ -37,6 +37,13 @@ void reportExceptions(const std::string& name, NodeletStatus& status, Work&& wor
   }
 }
 
+/// Publisher queue of the perception outputs. In the same manager a subscriber gets the pointer
+/// whatever the queue; a listener in another process (the planners' own manager, rviz, the soak
+/// monitor) is sent the frame over TCP, and with a queue of 1 a listener a frame behind lost it
+/// silently (scripts/soak.py counted such losses at 30 Hz on a loaded machine). The subscribers'
+/// own queues still decide which frames they process.
+constexpr int kOutputQueueSize = 5;
+
 /// Start-up shared by every perception nodelet, whatever its inputs.
 class CloudNodeletBase : public nodelet_topic_tools::NodeletLazy
 {

@@ -30,8 +30,14 @@ struct PreprocessParams
   /// 1-2 mm, so with a 5 mm leaf a stride of 2 still leaves several pixels per voxel while
   /// quartering the work (see bench_perception). 1 keeps every pixel.
   int pixel_stride = 2;
-  /// Larger clouds are rejected before any work (a 640x480 camera gives 307200).
-  std::size_t max_input_points = 2000000;
+  /// Work bound: a cloud that would give more sampled points than this at `pixel_stride` is
+  /// read with the smallest coarser stride that fits (every n-th row and column of an organised
+  /// cloud, every n-th point of an unorganised one) and the result says so. A 5 MP industrial
+  /// camera then costs what a 640x480 one does at stride 1 instead of being refused.
+  std::size_t max_sampled_points = 307200;
+  /// Larger clouds are rejected before any work: no depth camera gives 50 million points in
+  /// one frame; such a cloud is a bug upstream (e.g. an accumulated map), not a view.
+  std::size_t max_input_points = 50000000;
 };
 
 /// Read-only view of packed float32 x, y, z points in a byte buffer (host byte order), e.g. the
@@ -53,7 +59,7 @@ struct RawCloudView
 struct PreprocessResult
 {
   bool ok = false;
-  std::string reason;  // why not ok; a note (e.g. infinite coordinates dropped) when ok
+  std::string reason;  // why not ok; a note (down-sampled, infinite coordinates dropped) when ok
   /// Base frame, voxelised, dense (no NaN); sensor_origin_ = camera optical centre. Null iff !ok.
   CloudXYZ::Ptr cloud;
   std::size_t input_points = 0;
@@ -61,6 +67,8 @@ struct PreprocessResult
   std::size_t finite_points = 0;    // finite x, y, z
   std::size_t infinite_points = 0;  // at least one +-inf coordinate (a driver bug, not "no return")
   std::size_t in_reach_points = 0;  // finite, inside reach and height band
+  std::size_t sampling_stride = 0;  // rows/columns (points if unorganised) actually stepped
+  bool downsampled = false;         // sampling_stride was raised above pixel_stride (see reason)
   double voxel_time_s = 0.0;        // of the total, the voxel grid (bench_perception reports it)
 };
 
