@@ -1,16 +1,15 @@
 #include "fast_grasp/perception/concave_split.h"
 
+#include "fast_grasp/perception/table_footprint.h"
+
 #include <pcl/features/normal_3d.h>
 #include <pcl/search/kdtree.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
-#include <unordered_set>
 
 namespace fast_grasp
 {
@@ -34,19 +33,9 @@ private:
   std::vector<std::size_t> parent_;
 };
 
-struct TableAxes
-{
-  explicit TableAxes(const Eigen::Vector3f& up_axis)
-    : up(up_axis.normalized()), u(up.unitOrthogonal()), v(up.cross(u))
-  {
-  }
-  Eigen::Vector2f project(const Eigen::Vector3f& p) const { return { u.dot(p), v.dot(p) }; }
-  Eigen::Vector3f up, u, v;
-};
-
 /// A single object seen from outside is convex or flat; a piece that curves inward everywhere is
 /// the inside of a container (a mug's or a pot's far inner wall and bottom), cut from its outer
-/// wall along the rim. Joins each such piece (more than concave_piece_fraction of its bent links
+/// wall along the rim. Joins each such piece (more than concave_piece_fraction of its bent point pairs
 /// concave) to the neighbour piece it shares most border links with.
 void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
                                  const std::vector<Eigen::Vector3f>& normals, const std::vector<int>& piece_of,
@@ -96,39 +85,13 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::
   }
 }
 
-/// Where the camera saw the table: occupied cells (table_cell_m) of the table points' projections.
-class TableCells
-{
-public:
-  TableCells(const CloudXYZ& table, const Eigen::Vector4f& plane, double cell_m)
-    : axes_(plane.head<3>()), cell_m_(static_cast<float>(cell_m))
-  {
-    for (const auto& p : table.points)
-      cells_.insert(key(p.getVector3fMap()));
-  }
-  bool seen(const Eigen::Vector3f& p) const { return cells_.count(key(p)) > 0; }
-
-private:
-  std::uint64_t key(const Eigen::Vector3f& p) const
-  {
-    const Eigen::Vector2f q = axes_.project(p) / cell_m_;
-    // Two's-complement bits of each cell index, side by side (no shift of a negative value).
-    const auto i = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(q.x())));
-    const auto j = static_cast<std::uint32_t>(static_cast<std::int32_t>(std::floor(q.y())));
-    return (static_cast<std::uint64_t>(i) << 32) | j;
-  }
-  TableAxes axes_;
-  float cell_m_;
-  std::unordered_set<std::uint64_t> cells_;
-};
-
 /// Nothing floats: a piece held up only by its neighbour (a pan's handle, a drill's chuck, a
 /// mug's handle) is part of it. A piece stands when its lowest seen points are near the table,
 /// or when the table straight under them was not seen (something nearer hides it: the object
 /// may stand there, as a box behind another does, or it rests on a piece below). Joins each
 /// piece that cannot stand to the neighbour it shares most border links with.
 void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
-                               const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableCells& table,
+                               const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableFootprint& table,
                                const ConcaveSplitParams& params, Pieces& objects)
 {
   const Eigen::Vector3f up = plane.head<3>().normalized();
@@ -153,7 +116,7 @@ void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::In
     if (height > lowest[object] + static_cast<float>(params.bottom_band_m))
       continue;
     ++bottom_points[object];
-    bottom_over_seen_table[object] += table.seen(p - height * up) ? 1 : 0;
+    bottom_over_seen_table[object] += table.covers(p - height * up) ? 1 : 0;
   }
   const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
   for (const auto& [object, low] : lowest)
@@ -186,7 +149,7 @@ void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::In
 
 /// Splits one cluster; appends its pieces (indices into the full cloud) to `out`.
 void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eigen::Vector3f& viewpoint,
-                  const Eigen::Vector4f& plane, const TableCells& table, const ConcaveSplitParams& params,
+                  const Eigen::Vector4f& plane, const TableFootprint& table, const ConcaveSplitParams& params,
                   std::vector<pcl::PointIndices>& out)
 {
   const Eigen::Vector3f up = plane.head<3>();
@@ -328,7 +291,10 @@ std::vector<pcl::PointIndices> splitAtConcaveCreases(const CloudXYZ& cloud, cons
                                                      const Eigen::Vector3f& viewpoint, const Eigen::Vector4f& plane,
                                                      const CloudXYZ& table, const ConcaveSplitParams& params)
 {
-  const TableCells table_cells(table, plane, params.table_cell_m);
+  // Where the camera saw the table.
+  TableFootprint table_cells(plane, params.table_cell_m);
+  for (const auto& p : table.points)
+    table_cells.add(p.getVector3fMap());
   std::vector<pcl::PointIndices> out;
   for (const auto& cluster : clusters)
     splitCluster(cloud, cluster.indices, viewpoint, plane, table_cells, params, out);

@@ -1,5 +1,7 @@
 #include "fast_grasp/perception/table_segmentation.h"
 
+#include "fast_grasp/perception/table_footprint.h"
+
 #include <pcl/ModelCoefficients.h>
 #include <pcl/common/io.h>
 #include <pcl/sample_consensus/method_types.h>
@@ -14,7 +16,6 @@
 #include <limits>
 #include <numeric>
 #include <sstream>
-#include <unordered_set>
 #include <utility>
 
 namespace fast_grasp
@@ -115,60 +116,16 @@ void finishCloud(CloudXYZ& cloud)
   cloud.height = 1;
 }
 
-/// Footprint of a cluster on the table: occupied cells (cluster_tolerance_m wide) of the point
-/// projections, dilated by one cell. A hash set rather than a 2-D k-d tree: the clusters are
-/// small and the test is a single lookup per point.
-class Footprint
-{
-public:
-  Footprint(const Eigen::Vector4f& plane, double cell_m) : cell_m_(static_cast<float>(cell_m))
-  {
-    const Eigen::Vector3f normal = plane.head<3>();
-    u_ = normal.unitOrthogonal();
-    v_ = normal.cross(u_);
-  }
-  void add(const PointXYZ& p)
-  {
-    const auto [i, j] = cellOf(p);
-    for (int di = -1; di <= 1; ++di)
-      for (int dj = -1; dj <= 1; ++dj)
-        cells_.insert(key(i + di, j + dj));
-  }
-  bool covers(const PointXYZ& p) const
-  {
-    const auto [i, j] = cellOf(p);
-    return cells_.count(key(i, j)) > 0;
-  }
-
-private:
-  std::pair<std::int64_t, std::int64_t> cellOf(const PointXYZ& p) const
-  {
-    const Eigen::Vector3f q = p.getVector3fMap();
-    return { static_cast<std::int64_t>(std::floor(u_.dot(q) / cell_m_)),
-             static_cast<std::int64_t>(std::floor(v_.dot(q) / cell_m_)) };
-  }
-  // Shifted as unsigned: a left shift of a negative index (cells left of or behind the origin) is
-  // undefined behaviour (UBSan on the cracker_box bag); the bits are the same.
-  static std::int64_t key(std::int64_t i, std::int64_t j)
-  {
-    return static_cast<std::int64_t>((static_cast<std::uint64_t>(i) << 32) ^ (static_cast<std::uint64_t>(j) & 0xffffffffu));
-  }
-
-  float cell_m_;
-  Eigen::Vector3f u_, v_;
-  std::unordered_set<std::int64_t> cells_;
-};
-
 /// Fraction of `points` whose projection lies on the footprint of `base`.
 double overlapFraction(const CloudXYZ& cloud, const pcl::Indices& points, const pcl::Indices& base,
                        const Eigen::Vector4f& plane, double cell_m)
 {
-  Footprint footprint(plane, cell_m);
+  TableFootprint footprint(plane, cell_m);
   for (const auto i : base)
-    footprint.add(cloud.points[i]);
+    footprint.add(cloud.points[i].getVector3fMap(), /*dilate=*/true);
   std::size_t over = 0;
   for (const auto i : points)
-    over += footprint.covers(cloud.points[i]) ? 1 : 0;
+    over += footprint.covers(cloud.points[i].getVector3fMap()) ? 1 : 0;
   return points.empty() ? 0.0 : static_cast<double>(over) / static_cast<double>(points.size());
 }
 
