@@ -52,7 +52,7 @@ const char* const kUsage =
     "                   | --scene FILE.yaml [--ycb-dir DIR] [--follow-next-view N]\n"
     "                     [--algorithm principal_axis|cshape|boundary|concavity|fused] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
-    "                     [--save-object FILE.pcd]\n"
+    "                     [--save-object FILE.pcd] [--split-touching-objects]\n"
     "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
     "  --topic T            cloud topic (default /camera/depth_registered/points; without --topic\n"
     "                       a bag that also has /head_camera/depth_registered/points is fused)\n"
@@ -61,6 +61,8 @@ const char* const kUsage =
     "  --viewpoint x,y,z    camera optical centre in base_link (required with --pcd)\n"
     "  --table a,b,c,d      table plane a*x+b*y+c*z+d=0 in base_link (replaces the fitted one)\n"
     "  --already-segmented  the PCD holds the object only: no table fit, no clustering\n"
+    "  --split-touching-objects  cut clusters at concave creases so touching objects come out apart\n"
+    "                       (demo.launch split_touching_objects:=true; single camera only)\n"
     "  --scene FILE         scene YAML (config/scenes/), rendered from its cameras as render_bag does\n"
     "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
     "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
@@ -83,6 +85,7 @@ struct Options
   std::optional<Eigen::Vector3f> viewpoint;
   std::optional<Eigen::Vector4f> table_plane;
   bool already_segmented = false;
+  bool split_touching_objects = false;  // perception.yaml's split_concave_creases
   std::string scene_path;
   std::string ycb_dir;  // empty: $FAST_GRASP_YCB_DIR
   int follow_next_view = 0;
@@ -149,6 +152,11 @@ Options parseOptions(int argc, char** argv)
     if (flag == "--already-segmented")
     {
       options.already_segmented = true;
+      continue;
+    }
+    if (flag == "--split-touching-objects")
+    {
+      options.split_touching_objects = true;
       continue;
     }
     if (flag.rfind("--", 0) != 0)
@@ -664,6 +672,7 @@ int run(const Options& options)
 
     ViewPreparationParams perception = deployedViewPreparationParams();
     perception.segment_table = !options.already_segmented;
+    perception.segmentation.split_concave_creases = options.split_touching_objects;
     perception.table_plane = options.table_plane;
     GraspResult result;
     for (int view = 0;; ++view)
