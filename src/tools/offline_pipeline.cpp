@@ -1,5 +1,9 @@
 #include "offline_pipeline.h"
 
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -84,6 +88,48 @@ SensorCloud sensorCloudFromBagFrame(const BagFrame& frame)
   sensor.rgb_cloud = frame.cloud;
   sensor.cloud_to_base = frame.camera_to_base;
   return sensor;
+}
+
+CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
+{
+  // PCL 1.13's PCDReader::read dereferences past a header it failed to parse (segfault on an
+  // empty or non-PCD file), so the header is read and checked on its own first.
+  pcl::PCDReader reader;
+  pcl::PCLPointCloud2 blob;
+  Eigen::Vector4f origin;
+  Eigen::Quaternionf orientation;
+  int version = 0;
+  int data_type = 0;
+  unsigned int data_index = 0;
+  if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
+  {
+    error = "not a PCD file (unreadable header): " + path;
+    return nullptr;
+  }
+  if (blob.fields.empty())
+  {
+    error = path + " declares no fields";
+    return nullptr;
+  }
+  if (reader.read(path, blob) < 0)
+  {
+    error = "cannot read PCD file " + path;
+    return nullptr;
+  }
+  for (const char* field : { "x", "y", "z" })
+  {
+    bool found = false;
+    for (const auto& f : blob.fields)
+      found = found || f.name == field;
+    if (!found)
+    {
+      error = path + " has no '" + field + "' field";
+      return nullptr;
+    }
+  }
+  auto cloud = std::make_shared<CloudXYZ>();
+  pcl::fromPCLPointCloud2(blob, *cloud);
+  return cloud;
 }
 
 PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPreparationParams& params, std::mt19937& rng)
