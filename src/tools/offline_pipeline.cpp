@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -124,6 +125,31 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
     if (!found)
     {
       error = path + " has no '" + field + "' field";
+      return nullptr;
+    }
+  }
+  // pcl::fromPCLPointCloud2 trusts the blob: it takes the address of point 0 of an empty cloud
+  // (undefined behaviour, UBSan on a fuzzed file) and copies width * height points of
+  // point_step bytes from wherever the data ends, so the sizes are checked here.
+  const std::uint64_t points = static_cast<std::uint64_t>(blob.width) * blob.height;
+  if (points == 0)
+  {
+    error = path + " holds no points";
+    return nullptr;
+  }
+  if (blob.point_step == 0 || blob.row_step < static_cast<std::uint64_t>(blob.point_step) * blob.width ||
+      blob.data.size() < static_cast<std::uint64_t>(blob.row_step) * blob.height)
+  {
+    error = path + ": " + std::to_string(blob.data.size()) + " data bytes do not hold " + std::to_string(points) +
+            " points of " + std::to_string(blob.point_step) + " bytes";
+    return nullptr;
+  }
+  for (const auto& f : blob.fields)
+  {
+    if ((f.name == "x" || f.name == "y" || f.name == "z") &&
+        (f.datatype != pcl::PCLPointField::FLOAT32 || f.offset + sizeof(float) > blob.point_step))
+    {
+      error = path + ": field '" + f.name + "' is not a float inside the point";
       return nullptr;
     }
   }
