@@ -655,13 +655,17 @@ TEST(OfflinePipeline, PcdReaderRefusesWhatTheConversionWouldMisread)
   // pcl::fromPCLPointCloud2 indexes point 0 of an empty cloud (UBSan while fuzzing;
   // test/fuzz/corpus/pcd_input/crash_*) and copies x, y, z of any type as floats.
   std::string error;
-  const std::string header = "VERSION 0.7\nFIELDS x y z\nCOUNT 1 1 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n";
+  // PCL wants SIZE and TYPE before COUNT.
+  const auto header = [](const char* size_type, int points) {
+    return std::string("VERSION 0.7\nFIELDS x y z\n") + size_type + "COUNT 1 1 1\nWIDTH " + std::to_string(points) +
+           "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(points) + "\nDATA ascii\n";
+  };
   const std::string empty = ::testing::TempDir() + "/no_points.pcd";
-  std::ofstream(empty) << header << "SIZE 4 4 4\nTYPE F F F\nWIDTH 0\nPOINTS 0\nDATA ascii\n";
+  std::ofstream(empty) << header("SIZE 4 4 4\nTYPE F F F\n", 0);
   EXPECT_EQ(fast_grasp::readPcdCloud(empty, error), nullptr);
   EXPECT_NE(error.find("no points"), std::string::npos) << error;
   const std::string bytes = ::testing::TempDir() + "/byte_coordinates.pcd";
-  std::ofstream(bytes) << header << "SIZE 1 1 1\nTYPE U U U\nWIDTH 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  std::ofstream(bytes) << header("SIZE 1 1 1\nTYPE U U U\n", 1) << "1 2 3\n";
   EXPECT_EQ(fast_grasp::readPcdCloud(bytes, error), nullptr);
   EXPECT_NE(error.find("not a float"), std::string::npos) << error;
   const pcl::PointCloud<pcl::PointXYZ> box = visibleBoxPoints();
