@@ -102,19 +102,29 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
   int version = 0;
   int data_type = 0;
   unsigned int data_index = 0;
-  if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
+  // readHeader also throws (std::exception) on some malformed headers instead of failing
+  // (std::terminate while fuzzing, test/fuzz/corpus/pcd_input/crash_header_throws).
+  try
   {
-    error = "not a PCD file (unreadable header): " + path;
-    return nullptr;
+    if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
+    {
+      error = "not a PCD file (unreadable header): " + path;
+      return nullptr;
+    }
+    if (blob.fields.empty())
+    {
+      error = path + " declares no fields";
+      return nullptr;
+    }
+    if (reader.read(path, blob) < 0)
+    {
+      error = "cannot read PCD file " + path;
+      return nullptr;
+    }
   }
-  if (blob.fields.empty())
+  catch (const std::exception& e)
   {
-    error = path + " declares no fields";
-    return nullptr;
-  }
-  if (reader.read(path, blob) < 0)
-  {
-    error = "cannot read PCD file " + path;
+    error = "not a PCD file (" + std::string(e.what()) + "): " + path;
     return nullptr;
   }
   for (const char* field : { "x", "y", "z" })
