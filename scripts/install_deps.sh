@@ -9,6 +9,8 @@ PACKAGES=(
   # build
   build-essential cmake catkin catkin-lint ros-message-generation ros-message-runtime
   libgtest-dev googletest python3-catkin-pkg python3-empy python3-numpy
+  # the ASan + UBSan build and the libFuzzer targets (scripts/sanitizer_tests.sh, scripts/fuzz.sh)
+  clang libfuzzer-14-dev libclang-rt-14-dev
   # core libraries
   libeigen3-dev libpcl-dev libompl-dev libfcl-dev liboctomap-dev liborocos-kdl-dev
   libkdl-parser-dev liburdfdom-dev liburdf-dev libyaml-cpp-dev

@@ -21,6 +21,12 @@ fi
 # catkin_make run_tests exits 0 even when tests fail: the verdict comes from catkin_test_results.
 catkin_make run_tests -DPYTHON_EXECUTABLE=/usr/bin/python3 -j1 "$@" 2>&1 | tee build/run_tests.log \
   | grep -E '^\[( +OK|  FAILED|  PASSED| RUN)|^\[ROSTEST\]|^SUMMARY|^ \* RESULT|^FAILURE|Failure|FAILED|^-- run_tests' || true
+# ASan + UBSan: the ROS-free gtests and every fuzz corpus in a clang build of their own
+# (scripts/sanitizer_tests.sh, ${FAST_GRASP_WS}/asan); their results count like the others.
+sanitizer_start="$(date +%s)"
+bash "${FAST_GRASP_SRC}/scripts/sanitizer_tests.sh" build/test_results/fast_grasp > build/sanitizer_tests.log 2>&1
+grep -E '^\[asan\]|ERROR: |runtime error' build/sanitizer_tests.log || true
+echo "sanitizer stage: $(( $(date +%s) - sanitizer_start )) s"
 # catkin_lint -W2 must stay clean: its verdict is one more test case in the results.
 mkdir -p build/test_results/fast_grasp
 lint_output="$(cd "${FAST_GRASP_WS}/src/fast_grasp" && catkin_lint -W2 --strict . 2>&1)"

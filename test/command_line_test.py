@@ -12,7 +12,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 EXECUTABLES = ["grasp_offline", "arm_offline", "render_bag", "scene_camera", "bench_ik", "bench_planners",
                "bench_perception", "bench_segmentation", "bench_grasps", "bench_grasp_motions"]
 SCRIPTS = ["evaluate_grasps_physics.py", "evaluate_grasps.py", "ompl_benchmark_db.py", "count_test_results.py",
-           "soak.py", "soak.sh"]
+           "soak.py"]
+SHELL_SCRIPTS = ["soak.sh", "fuzz.sh", "build_sanitized.sh", "sanitizer_tests.sh"]
 
 
 def run(command):
@@ -37,8 +38,12 @@ class CommandLineTest(unittest.TestCase):
     def test_scripts(self):
         for name in SCRIPTS:
             with self.subTest(name=name):
-                interpreter = "/bin/bash" if name.endswith(".sh") else "/usr/bin/python3"
-                self.check([interpreter, os.path.join(HERE, "..", "scripts", name)])
+                self.check(["/usr/bin/python3", os.path.join(HERE, "..", "scripts", name)])
+
+    def test_shell_scripts(self):
+        for name in SHELL_SCRIPTS:
+            with self.subTest(name=name):
+                self.check(["/bin/bash", os.path.join(HERE, "..", "scripts", name)])
 
 
 if __name__ == "__main__":

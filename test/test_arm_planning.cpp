@@ -130,6 +130,17 @@ TEST(TrajectoryTiming, CornersStopAndBadInputIsRejected)
   TimingLimits zero = limits;
   zero.acceleration_rad_s2.setZero();
   EXPECT_FALSE(timeParameterize(path, zero, traj, &why));
+  // A step count beyond int (a tiny max_step_rad) or a segment whose length overflows was an
+  // undefined cast and an unbounded grid (UBSan while fuzzing;
+  // test/fuzz/corpus/trajectory_timing/crash_*): refused with a reason.
+  TimingLimits tiny_step = limits;
+  tiny_step.max_step_rad = 1e-300;
+  EXPECT_FALSE(timeParameterize(path, tiny_step, traj, &why));
+  EXPECT_NE(why.find("too long"), std::string::npos) << why;
+  const std::vector<Eigen::VectorXd> huge_path = { Eigen::VectorXd::Constant(6, -1e308),
+                                                   Eigen::VectorXd::Constant(6, 1e308) };
+  EXPECT_FALSE(timeParameterize(huge_path, limits, traj, &why));
+  EXPECT_TRUE(traj.empty());
 }
 
 TEST(ArmMotionPlanner, EveryThesisPlannerAllocates)

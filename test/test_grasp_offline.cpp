@@ -650,6 +650,31 @@ TEST(GraspOfflineBadInput, EmptyAndNonPcdFilesFail)
   EXPECT_EQ(runTool("--bag " + garbage).exit_code, 1);
 }
 
+TEST(OfflinePipeline, PcdReaderRefusesWhatTheConversionWouldMisread)
+{
+  // pcl::fromPCLPointCloud2 indexes point 0 of an empty cloud (UBSan while fuzzing;
+  // test/fuzz/corpus/pcd_input/crash_*) and copies x, y, z of any type as floats.
+  std::string error;
+  // PCL wants SIZE and TYPE before COUNT.
+  const auto header = [](const char* size_type, int points) {
+    return std::string("VERSION 0.7\nFIELDS x y z\n") + size_type + "COUNT 1 1 1\nWIDTH " + std::to_string(points) +
+           "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(points) + "\nDATA ascii\n";
+  };
+  const std::string empty = ::testing::TempDir() + "/no_points.pcd";
+  std::ofstream(empty) << header("SIZE 4 4 4\nTYPE F F F\n", 0);
+  EXPECT_EQ(fast_grasp::readPcdCloud(empty, error), nullptr);
+  EXPECT_NE(error.find("no points"), std::string::npos) << error;
+  const std::string bytes = ::testing::TempDir() + "/byte_coordinates.pcd";
+  std::ofstream(bytes) << header("SIZE 1 1 1\nTYPE U U U\n", 1) << "1 2 3\n";
+  EXPECT_EQ(fast_grasp::readPcdCloud(bytes, error), nullptr);
+  EXPECT_NE(error.find("not a float"), std::string::npos) << error;
+  const pcl::PointCloud<pcl::PointXYZ> box = visibleBoxPoints();
+  const auto read = fast_grasp::readPcdCloud(writePcd("box_read_back", box), error);
+  ASSERT_NE(read, nullptr) << error;
+  ASSERT_EQ(read->size(), box.size());
+  EXPECT_TRUE(read->points.back().getVector3fMap().isApprox(box.points.back().getVector3fMap()));
+}
+
 TEST(GraspOfflineBadInput, WrongTopicAndFrameFail)
 {
   const std::string bag = kSourceDir + "/bags/cracker_box.bag";

@@ -290,6 +290,24 @@ TEST(CloudPreprocess, RawBufferViewMatchesThePclPath)
             std::string::npos);
 }
 
+TEST(CloudPreprocess, PointsWhoseTransformOverflowsAreDropped)
+{
+  // Garbage bytes read as floats can be near 3.4e38: rotated, such a finite point overflows to
+  // inf (or NaN), which passed the reach test when reach_m is effectively unbounded (its square
+  // is inf) and ended up in a cloud marked dense (fuzzing; test/fuzz/corpus/cloud_preprocess/).
+  CloudXYZ raw;
+  raw.push_back(PointXYZ(3e38f, 3e38f, 0.0f));
+  raw.push_back(PointXYZ(0.1f, 0.0f, 0.2f));
+  PreprocessParams params;
+  params.reach_m = 1e30;  // "no reach limit"
+  params.leaf_size_m = 0.0;
+  const Eigen::Isometry3f rotated(Eigen::AngleAxisf(0.785398f, Eigen::Vector3f::UnitZ()));
+  const PreprocessResult result = preprocessCloud(raw, rotated, params);
+  ASSERT_TRUE(result.ok) << result.reason;
+  ASSERT_EQ(result.cloud->size(), 1u);
+  EXPECT_TRUE(result.cloud->points[0].getVector3fMap().allFinite());
+}
+
 TEST(CloudPreprocess, BadInputGivesReasonNotThrow)
 {
   PreprocessParams params;

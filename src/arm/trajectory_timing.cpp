@@ -56,11 +56,19 @@ bool timeParameterize(const std::vector<Eigen::VectorXd>& waypoints, const Timin
   const std::size_t segments = path.size() - 1;
   std::vector<Eigen::VectorXd> dirs(segments);
   std::vector<double> lengths(segments);
+  double grid_points = 1.0;
   for (std::size_t k = 0; k < segments; ++k)
   {
     lengths[k] = (path[k + 1] - path[k]).norm();
     dirs[k] = (path[k + 1] - path[k]) / lengths[k];
+    grid_points += std::max(2.0, std::ceil(lengths[k] / limits.max_step_rad));
   }
+  // The step count below is an int and the grid is allocated: a segment whose length overflows
+  // (waypoints near 1e308) or a max_step_rad tiny against the path made that cast undefined
+  // behaviour (UBSan, fuzzing) or an unbounded allocation. A real arm path has thousands of steps.
+  constexpr double kMaxGridPoints = 1e6;
+  if (!std::isfinite(grid_points) || grid_points > kMaxGridPoints)
+    return fail(why, "path too long for max_step_rad: more than 1e6 grid points (or a non-finite segment length)");
   for (std::size_t k = 0; k < segments; ++k)
   {
     // At least two intervals per segment, so that a segment between two corners has an

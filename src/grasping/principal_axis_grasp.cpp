@@ -22,6 +22,10 @@ constexpr float kInfinity = std::numeric_limits<float>::infinity();
 // Grid rows/columns are capped so a huge or mis-scaled cloud cannot allocate without bound;
 // beyond this the cell grows instead.
 constexpr int kMaxGridCells1d = 4000;
+// The contour's occupancy grid is 2-D and only drawn (GraspResult::hull): at 4000 x 4000 cells
+// its three passes took 15 s per plan under ASan (fuzzing, a 6 m cloud). Its cells grow in
+// whole rows of the grid beyond this per side, so objects up to 1 m at 2 mm keep their drawing.
+constexpr int kMaxContourCells1d = 500;
 
 /// Right-handed object frame (Eq. 3.3 / 3.8, see the class comment for the X sign).
 struct ObjectFrame
@@ -222,14 +226,18 @@ bool buildGrid(const std::vector<Eigen::Vector3f>& points, double cell_m, int ga
   {
     // Occupancy with a one-cell border, closed (3x3 dilation then erosion) so holes of one
     // cell between scan lines do not show up as contour.
-    const int cols = static_cast<int>(std::floor((x_max - x_min) / cell)) + 3;
-    const int rows = static_cast<int>(grid.rows.size()) + 2;
+    const int step = std::max(
+        { 1, static_cast<int>(std::ceil(static_cast<double>(grid.rows.size()) / kMaxContourCells1d)),
+          static_cast<int>(std::ceil((std::floor((x_max - x_min) / cell) + 1) / kMaxContourCells1d)) });
+    const double contour_cell = cell * step;
+    const int cols = static_cast<int>(std::floor((x_max - x_min) / contour_cell)) + 3;
+    const int rows = static_cast<int>((grid.rows.size() + step - 1) / step) + 2;
     std::vector<std::uint8_t> occupied(static_cast<std::size_t>(cols * rows), 0);
     auto at = [cols](int c, int r) { return static_cast<std::size_t>(r * cols + c); };
     for (const auto& p : points)
     {
-      const int c = std::clamp(static_cast<int>(std::floor((p.x() - x_min) / cell)), 0, cols - 3) + 1;
-      occupied[at(c, grid.rowOf(p.y()) + 1)] = 1;
+      const int c = std::clamp(static_cast<int>(std::floor((p.x() - x_min) / contour_cell)), 0, cols - 3) + 1;
+      occupied[at(c, grid.rowOf(p.y()) / step + 1)] = 1;
     }
     auto morph = [&](const std::vector<std::uint8_t>& in, bool dilate) {
       std::vector<std::uint8_t> out(in.size(), 0);
@@ -270,8 +278,8 @@ bool buildGrid(const std::vector<Eigen::Vector3f>& points, double cell_m, int ga
           continue;
         if (closed[at(c - 1, r)] && closed[at(c + 1, r)] && closed[at(c, r - 1)] && closed[at(c, r + 1)])
           continue;
-        boundary_xy->emplace_back(static_cast<float>(x_min + (c - 1 + 0.5) * cell),
-                                  static_cast<float>(y_min + (r - 1 + 0.5) * cell));
+        boundary_xy->emplace_back(static_cast<float>(x_min + (c - 1 + 0.5) * contour_cell),
+                                  static_cast<float>(y_min + (r - 1 + 0.5) * contour_cell));
       }
   }
   return true;

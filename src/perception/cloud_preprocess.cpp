@@ -172,6 +172,11 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
       }
       ++result.finite_points;
       const Eigen::Vector3f q = rotation * p + translation;
+      // A finite point can still overflow in the transform (garbage bytes read as floats near
+      // 3e38 in a malformed cloud): its NaN failed every ">" test below and was kept in a cloud
+      // marked dense (fuzzing). Such a point is beyond any reach.
+      if (!q.allFinite())
+        continue;
       if ((q - params.reach_centre_m).squaredNorm() > reach_sq || q.z() < min_z || q.z() > max_z)
         continue;
       in_reach->push_back(PointXYZ(q.x(), q.y(), q.z()));

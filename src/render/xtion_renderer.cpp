@@ -2,6 +2,7 @@
 
 #include <pcl/PolygonMesh.h>
 #include <pcl/conversions.h>
+#include <pcl/io/ply_io.h>
 #include <pcl/io/vtk_lib_io.h>
 #include <pcl/point_types.h>
 
@@ -167,7 +168,12 @@ TriangleMesh makeExtrusion(const std::vector<Eigen::Vector2d>& polygon_xy_m, dou
 bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& error)
 {
   pcl::PolygonMesh polygon_mesh;
-  if (pcl::io::loadPolygonFile(path, polygon_mesh) <= 0)
+  // PLY through PCL's own reader, not VTK's: VTK 9.1's vtkPLY::add_property dereferences a bad
+  // pointer on a malformed PLY header (a SEGV while fuzzing, test/fuzz/corpus/mesh_loader/),
+  // and PCL's PLY reader is the one OSS-Fuzz covers. STL and OBJ stay with loadPolygonFile.
+  const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
+  if ((ply ? pcl::io::loadPLYFile(path, polygon_mesh) : pcl::io::loadPolygonFile(path, polygon_mesh)) < 0 ||
+      polygon_mesh.cloud.width * polygon_mesh.cloud.height == 0)
   {
     error = "cannot read a mesh from '" + path + "' (STL, OBJ or PLY expected)";
     return false;

@@ -17,9 +17,7 @@
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 
-#include <pcl/PCLPointCloud2.h>
 #include <pcl/console/print.h>
-#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
@@ -292,31 +290,10 @@ std::vector<SensorCloud> readPcdInput(const Options& options)
 {
   if (!fs::is_regular_file(options.pcd_path))
     failInput("no such file: " + options.pcd_path);
-  // PCL 1.13's PCDReader::read dereferences past a header it failed to parse (segfault on an
-  // empty or non-PCD file), so the header is read and checked on its own first.
-  pcl::PCDReader reader;
-  pcl::PCLPointCloud2 blob;
-  Eigen::Vector4f origin;
-  Eigen::Quaternionf orientation;
-  int version = 0;
-  int data_type = 0;
-  unsigned int data_index = 0;
-  if (reader.readHeader(options.pcd_path, blob, origin, orientation, version, data_type, data_index) < 0)
-    failInput("not a PCD file (unreadable header): " + options.pcd_path);
-  if (blob.fields.empty())
-    failInput(options.pcd_path + " declares no fields");
-  if (reader.read(options.pcd_path, blob) < 0)
-    failInput("cannot read PCD file " + options.pcd_path);
-  for (const char* field : { "x", "y", "z" })
-  {
-    bool found = false;
-    for (const auto& f : blob.fields)
-      found = found || f.name == field;
-    if (!found)
-      failInput(options.pcd_path + " has no '" + field + "' field");
-  }
-  auto cloud = std::make_shared<CloudXYZ>();
-  pcl::fromPCLPointCloud2(blob, *cloud);
+  std::string problem;
+  const CloudXYZ::Ptr cloud = readPcdCloud(options.pcd_path, problem);
+  if (!cloud)
+    failInput(problem);
   SensorCloud sensor;
   sensor.xyz_cloud = cloud;
   sensor.sensor_origin = options.viewpoint;  // the points are in base_link already

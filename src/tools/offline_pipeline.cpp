@@ -1,7 +1,12 @@
 #include "offline_pipeline.h"
 
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -84,6 +89,83 @@ SensorCloud sensorCloudFromBagFrame(const BagFrame& frame)
   sensor.rgb_cloud = frame.cloud;
   sensor.cloud_to_base = frame.camera_to_base;
   return sensor;
+}
+
+CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
+{
+  // PCL 1.13's PCDReader::read dereferences past a header it failed to parse (segfault on an
+  // empty or non-PCD file), so the header is read and checked on its own first.
+  pcl::PCDReader reader;
+  pcl::PCLPointCloud2 blob;
+  Eigen::Vector4f origin;
+  Eigen::Quaternionf orientation;
+  int version = 0;
+  int data_type = 0;
+  unsigned int data_index = 0;
+  // readHeader also throws (std::exception) on some malformed headers instead of failing
+  // (std::terminate while fuzzing, test/fuzz/corpus/pcd_input/crash_header_throws).
+  try
+  {
+    if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
+    {
+      error = "not a PCD file (unreadable header): " + path;
+      return nullptr;
+    }
+    if (blob.fields.empty())
+    {
+      error = path + " declares no fields";
+      return nullptr;
+    }
+    if (reader.read(path, blob) < 0)
+    {
+      error = "cannot read PCD file " + path;
+      return nullptr;
+    }
+  }
+  catch (const std::exception& e)
+  {
+    error = "not a PCD file (" + std::string(e.what()) + "): " + path;
+    return nullptr;
+  }
+  for (const char* field : { "x", "y", "z" })
+  {
+    bool found = false;
+    for (const auto& f : blob.fields)
+      found = found || f.name == field;
+    if (!found)
+    {
+      error = path + " has no '" + field + "' field";
+      return nullptr;
+    }
+  }
+  // pcl::fromPCLPointCloud2 trusts the blob: it takes the address of point 0 of an empty cloud
+  // (undefined behaviour, UBSan on a fuzzed file) and copies width * height points of
+  // point_step bytes from wherever the data ends, so the sizes are checked here.
+  const std::uint64_t points = static_cast<std::uint64_t>(blob.width) * blob.height;
+  if (points == 0)
+  {
+    error = path + " holds no points";
+    return nullptr;
+  }
+  if (blob.point_step == 0 || blob.row_step < static_cast<std::uint64_t>(blob.point_step) * blob.width ||
+      blob.data.size() < static_cast<std::uint64_t>(blob.row_step) * blob.height)
+  {
+    error = path + ": " + std::to_string(blob.data.size()) + " data bytes do not hold " + std::to_string(points) +
+            " points of " + std::to_string(blob.point_step) + " bytes";
+    return nullptr;
+  }
+  for (const auto& f : blob.fields)
+  {
+    if ((f.name == "x" || f.name == "y" || f.name == "z") &&
+        (f.datatype != pcl::PCLPointField::FLOAT32 || f.offset + sizeof(float) > blob.point_step))
+    {
+      error = path + ": field '" + f.name + "' is not a float inside the point";
+      return nullptr;
+    }
+  }
+  auto cloud = std::make_shared<CloudXYZ>();
+  pcl::fromPCLPointCloud2(blob, *cloud);
+  return cloud;
 }
 
 PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPreparationParams& params, std::mt19937& rng)

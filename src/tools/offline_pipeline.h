@@ -39,6 +39,11 @@ struct SensorCloud
 /// A bag frame (organised camera cloud + its static camera pose) as a SensorCloud.
 SensorCloud sensorCloudFromBagFrame(const BagFrame& frame);
 
+/// The x, y, z fields of a PCD file (any PCL-readable encoding), or null with `error` saying why
+/// (unreadable header, no fields, a missing axis, bad data). grasp_offline's --pcd input;
+/// test/fuzz/fuzz_pcd_input.cpp feeds it arbitrary files.
+CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error);
+
 struct ViewPreparationParams
 {
   PreprocessParams preprocess;

@@ -1,0 +1,8 @@
+// libFuzzer target: the boundary planner's plan() on an arbitrary object view and gripper
+// (layout: fuzz_object_view.h). Seeds: test/fuzz/corpus/object_view/.
+#include "fuzz_object_view.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+  return fast_grasp::fuzz::runPlanner("boundary", data, size);
+}
