@@ -33,27 +33,42 @@ private:
   std::vector<std::size_t> parent_;
 };
 
+/// Links from the points of `group` to points of other groups, counted per other group;
+/// `groupOf(i)` names point i's group. `links[i]`: i's neighbours within link_radius_m.
+template <typename GroupOf>
+std::map<std::size_t, int> borderLinks(const std::vector<std::vector<std::size_t>>& links, GroupOf groupOf, std::size_t group)
+{
+  std::map<std::size_t, int> border;
+  for (std::size_t i = 0; i < links.size(); ++i)
+  {
+    if (groupOf(i) != group)
+      continue;
+    for (const std::size_t j : links[i])
+      if (groupOf(j) != group)
+        ++border[groupOf(j)];
+  }
+  return border;
+}
+
+/// The group sharing most links with the border's owner.
+std::size_t mostLinked(const std::map<std::size_t, int>& border)
+{
+  return std::max_element(border.begin(), border.end(), [](const auto& a, const auto& b) { return a.second < b.second; })
+      ->first;
+}
+
 /// A single object seen from outside is convex or flat; a piece that curves inward everywhere is
 /// the inside of a container (a mug's or a pot's far inner wall and bottom), cut from its outer
 /// wall along the rim. Joins each such piece (more than concave_piece_fraction of its bent point pairs
 /// concave) to the neighbour piece it shares most border links with.
-void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
+void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                  const std::vector<Eigen::Vector3f>& normals, const std::vector<int>& piece_of,
                                  const ConcaveSplitParams& params, Pieces& objects)
 {
-  // Border links between pieces.
-  const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
-  std::vector<std::map<int, int>> border(objects.size());
   std::vector<std::vector<std::size_t>> members(objects.size());
   for (std::size_t i = 0; i < points.size(); ++i)
-  {
     members[static_cast<std::size_t>(piece_of[i])].push_back(i);
-    for (const auto j : neighbours[i])
-      if (piece_of[static_cast<std::size_t>(j)] != piece_of[i] &&
-          (points.points[i].getVector3fMap() - points.points[static_cast<std::size_t>(j)].getVector3fMap()).squaredNorm() <=
-              link_radius_sq)
-        ++border[static_cast<std::size_t>(piece_of[i])][piece_of[static_cast<std::size_t>(j)]];
-  }
+  auto pieceOf = [&piece_of](std::size_t i) { return static_cast<std::size_t>(piece_of[i]); };
   // Bending is judged between points a few centimetres apart: neighbouring normals differ by
   // less than the sensor noise along a mug's inside. Fixed seed: the same cloud, the same answer.
   std::mt19937 rng(1);
@@ -63,7 +78,8 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::
   for (std::size_t piece = 0; piece < objects.size(); ++piece)
   {
     const auto& list = members[piece];
-    if (border[piece].empty() || list.size() < 2)
+    const std::map<std::size_t, int> border = borderLinks(links, pieceOf, piece);
+    if (border.empty() || list.size() < 2)
       continue;
     std::uniform_int_distribution<std::size_t> pick(0, list.size() - 1);
     int bent = 0, concave = 0;
@@ -77,20 +93,17 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<pcl::
       ++bent;
       concave += (normals[i] - normals[j]).dot(offset) < 0.0f ? 1 : 0;
     }
-    if (bent == 0 || static_cast<double>(concave) <= params.concave_piece_fraction * static_cast<double>(bent))
-      continue;
-    const auto holder = std::max_element(border[piece].begin(), border[piece].end(),
-                                         [](const auto& x, const auto& y) { return x.second < y.second; });
-    objects.join(piece, static_cast<std::size_t>(holder->first));
+    if (bent > 0 && static_cast<double>(concave) > params.concave_piece_fraction * static_cast<double>(bent))
+      objects.join(piece, mostLinked(border));
   }
 }
 
-/// Nothing floats: a piece held up only by its neighbour (a pan's handle, a drill's chuck, a
-/// mug's handle) is part of it. A piece stands when its lowest seen points are near the table,
+/// Nothing floats: a piece held up only by its neighbour (a pan's handle, a mug's handle) is
+/// part of it. A piece stands when its lowest seen points are near the table,
 /// or when the table straight under them was not seen (something nearer hides it: the object
 /// may stand there, as a box behind another does, or it rests on a piece below). Joins each
 /// piece that cannot stand to the neighbour it shares most border links with.
-void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::Indices>& neighbours,
+void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableFootprint& table,
                                const ConcaveSplitParams& params, Pieces& objects)
 {
@@ -118,32 +131,16 @@ void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<pcl::In
     ++bottom_points[object];
     bottom_over_seen_table[object] += table.covers(p - height * up) ? 1 : 0;
   }
-  const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
+  auto objectOf = [&](std::size_t i) { return objects.find(static_cast<std::size_t>(piece_of[i])); };
   for (const auto& [object, low] : lowest)
   {
     if (low <= static_cast<float>(params.standing_height_m) ||
         static_cast<double>(bottom_over_seen_table[object]) <
             params.floating_seen_fraction * static_cast<double>(bottom_points[object]))
       continue;
-    std::map<std::size_t, int> border;
-    for (std::size_t i = 0; i < points.size(); ++i)
-    {
-      if (objects.find(static_cast<std::size_t>(piece_of[i])) != object)
-        continue;
-      for (const auto j : neighbours[i])
-      {
-        const std::size_t other = objects.find(static_cast<std::size_t>(piece_of[static_cast<std::size_t>(j)]));
-        if (other != object &&
-            (points.points[i].getVector3fMap() - points.points[static_cast<std::size_t>(j)].getVector3fMap()).squaredNorm() <=
-                link_radius_sq)
-          ++border[other];
-      }
-    }
-    if (border.empty())
-      continue;
-    const auto holder = std::max_element(border.begin(), border.end(),
-                                         [](const auto& a, const auto& b) { return a.second < b.second; });
-    objects.join(object, holder->first);
+    const std::map<std::size_t, int> border = borderLinks(links, objectOf, object);
+    if (!border.empty())
+      objects.join(object, mostLinked(border));
   }
 }
 
@@ -152,7 +149,6 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
                   const Eigen::Vector4f& plane, const TableFootprint& table, const ConcaveSplitParams& params,
                   std::vector<pcl::PointIndices>& out)
 {
-  const Eigen::Vector3f up = plane.head<3>();
   const std::size_t n = members.size();
   const int k = std::min<int>(params.k_neighbours, static_cast<int>(n));
   if (k < 3)
@@ -175,11 +171,11 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   for (std::size_t i = 0; i < n; ++i)
   {
     tree.nearestKSearch(static_cast<pcl::index_t>(i), k, neighbours[i], squared_distances);
-    Eigen::Vector4f plane;
+    Eigen::Vector4f fitted_plane;
     float curvature = 0.0f;
-    if (!pcl::computePointNormal(*points, neighbours[i], plane, curvature))
+    if (!pcl::computePointNormal(*points, neighbours[i], fitted_plane, curvature))
       continue;
-    Eigen::Vector3f normal = plane.head<3>();
+    Eigen::Vector3f normal = fitted_plane.head<3>();
     if (normal.dot(viewpoint - points->points[i].getVector3fMap()) < 0.0f)
       normal = -normal;
     normals[i] = normal;
@@ -188,36 +184,32 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   // A link is a crease when it is concave and its normals differ by more than the noise on a
   // flat face. Both ends of a crease link are crease points: they join nothing at first, so a
   // single convex-looking link along a noisy crease cannot bridge two objects.
+  // Links: the k neighbours within link_radius_m, found once for every test below.
   const float link_radius_sq = static_cast<float>(params.link_radius_m * params.link_radius_m);
-  const float flat_cosine = static_cast<float>(std::cos(params.concave_tolerance_rad));
-  std::vector<bool> on_crease(n, false);
+  std::vector<std::vector<std::size_t>> links(n);
   for (std::size_t i = 0; i < n; ++i)
-  {
-    const Eigen::Vector3f a = points->points[i].getVector3fMap();
     for (const auto j_index : neighbours[i])
     {
       const auto j = static_cast<std::size_t>(j_index);
-      const Eigen::Vector3f offset = a - points->points[j].getVector3fMap();
-      if (j == i || offset.squaredNorm() > link_radius_sq)
-        continue;
+      if (j != i && (points->points[i].getVector3fMap() - points->points[j].getVector3fMap()).squaredNorm() <= link_radius_sq)
+        links[i].push_back(j);
+    }
+  const float flat_cosine = static_cast<float>(std::cos(params.concave_tolerance_rad));
+  std::vector<bool> on_crease(n, false);
+  for (std::size_t i = 0; i < n; ++i)
+    for (const std::size_t j : links[i])
+    {
+      const Eigen::Vector3f offset = points->points[i].getVector3fMap() - points->points[j].getVector3fMap();
       const bool concave = (normals[i] - normals[j]).dot(offset) < 0.0f;
       if (concave && normals[i].dot(normals[j]) < flat_cosine)
         on_crease[i] = on_crease[j] = true;
     }
-  }
   Pieces pieces(n);
   for (std::size_t i = 0; i < n; ++i)
-  {
-    if (on_crease[i])
-      continue;
-    const Eigen::Vector3f a = points->points[i].getVector3fMap();
-    for (const auto j_index : neighbours[i])
-    {
-      const auto j = static_cast<std::size_t>(j_index);
-      if (!on_crease[j] && (a - points->points[j].getVector3fMap()).squaredNorm() <= link_radius_sq)
-        pieces.join(i, j);
-    }
-  }
+    if (!on_crease[i])
+      for (const std::size_t j : links[i])
+        if (!on_crease[j])
+          pieces.join(i, j);
 
   // Pieces of at least min_piece_points non-crease points are the objects; every other point
   // (crease points, slivers) takes the piece most of its k neighbours belong to, pass by pass
@@ -274,15 +266,12 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   for (int& piece : piece_of)
     piece = piece == kUnassigned ? largest : piece;
   Pieces objects(piece_number.size());
-  joinInsidesToTheirContainer(*points, neighbours, normals, piece_of, params, objects);
-  joinPiecesThatCannotStand(*points, neighbours, piece_of, plane, table, params, objects);
+  joinInsidesToTheirContainer(*points, links, normals, piece_of, params, objects);
+  joinPiecesThatCannotStand(*points, links, piece_of, plane, table, params, objects);
   std::map<std::size_t, pcl::PointIndices> by_object;
   for (std::size_t i = 0; i < n; ++i)
     by_object[objects.find(static_cast<std::size_t>(piece_of[i]))].indices.push_back(members[i]);
-  std::vector<pcl::PointIndices> result;
   for (auto& [object, piece] : by_object)
-    result.push_back(std::move(piece));
-  for (auto& piece : result)
     out.push_back(std::move(piece));
 }
 }  // namespace
