@@ -668,6 +668,10 @@ TEST(OfflinePipeline, PcdReaderRefusesWhatTheConversionWouldMisread)
   std::ofstream(bytes) << header("SIZE 1 1 1\nTYPE U U U\n", 1) << "1 2 3\n";
   EXPECT_EQ(fast_grasp::readPcdCloud(bytes, error), nullptr);
   EXPECT_NE(error.find("not a float"), std::string::npos) << error;
+  // PCDReader::readHeader throws on this fuzzed header (std::terminate in the fuzz target).
+  error.clear();
+  EXPECT_EQ(fast_grasp::readPcdCloud(kSourceDir + "/test/fuzz/corpus/pcd_input/crash_header_throws", error), nullptr);
+  EXPECT_NE(error.find("not a PCD file"), std::string::npos) << error;
   const pcl::PointCloud<pcl::PointXYZ> box = visibleBoxPoints();
   const auto read = fast_grasp::readPcdCloud(writePcd("box_read_back", box), error);
   ASSERT_NE(read, nullptr) << error;

@@ -8,6 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -172,6 +175,27 @@ bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& erro
   // pointer on a malformed PLY header (a SEGV while fuzzing, test/fuzz/corpus/mesh_loader/),
   // and PCL's PLY reader is the one OSS-Fuzz covers. STL and OBJ stay with loadPolygonFile.
   const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
+  const bool stl = path.size() >= 4 && path.compare(path.size() - 4, 4, ".stl") == 0;
+  // VTK allocates the triangle count a binary STL header declares before reading: a 150-byte
+  // file asked for 6 GB (out-of-memory while fuzzing). Binary STL is 84 + 50 bytes per triangle.
+  if (stl)
+  {
+    std::ifstream file(path, std::ios::binary | std::ios::ate);
+    const std::streamoff bytes = file ? static_cast<std::streamoff>(file.tellg()) : 0;
+    char head[84] = {};
+    file.seekg(0);
+    if (bytes >= 84 && file.read(head, sizeof(head)) && std::string(head, 5) != "solid")
+    {
+      std::uint32_t triangles = 0;
+      std::memcpy(&triangles, head + 80, sizeof(triangles));
+      if (84 + 50 * static_cast<std::uint64_t>(triangles) > static_cast<std::uint64_t>(bytes))
+      {
+        error = "mesh '" + path + "': binary STL declares " + std::to_string(triangles) +
+                " triangles, more than the file holds";
+        return false;
+      }
+    }
+  }
   if ((ply ? pcl::io::loadPLYFile(path, polygon_mesh) : pcl::io::loadPolygonFile(path, polygon_mesh)) < 0 ||
       polygon_mesh.cloud.width * polygon_mesh.cloud.height == 0)
   {

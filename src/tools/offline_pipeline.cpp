@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -114,6 +116,30 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
     if (blob.fields.empty())
     {
       error = path + " declares no fields";
+      return nullptr;
+    }
+    // PCDReader allocates what the header declares before it reads the data: a 200-byte file
+    // declaring a billion points asked for 4 GB (out-of-memory while fuzzing). The declared
+    // points must fit the file: 2 bytes each in ascii ("0\n"), point_step in binary, and LZF
+    // (binary_compressed) expands at most ~90x.
+    std::error_code size_error;
+    const double file_bytes = static_cast<double>(std::filesystem::file_size(path, size_error));
+    const double points = static_cast<double>(blob.width) * blob.height;
+    const double needed = data_type == 0 ? 2.0 * points : data_type == 1 ? points * blob.point_step + data_index :
+                                                                             points * blob.point_step / 100.0;
+    // binary_compressed: PCL allocates the block's own uncompressed-size field, which must match.
+    std::uint32_t block_sizes[2] = { 0, 0 };  // compressed, uncompressed
+    if (data_type == 2)
+    {
+      std::ifstream file(path, std::ios::binary);
+      file.seekg(data_index);
+      file.read(reinterpret_cast<char*>(block_sizes), sizeof(block_sizes));
+    }
+    if (size_error || needed > file_bytes ||
+        (data_type == 2 && (block_sizes[0] > file_bytes || block_sizes[1] != points * blob.point_step)))
+    {
+      error = path + " declares " + std::to_string(static_cast<std::uint64_t>(points)) +
+              " points, more than its " + std::to_string(static_cast<std::uint64_t>(file_bytes)) + " bytes hold";
       return nullptr;
     }
     if (reader.read(path, blob) < 0)
