@@ -164,6 +164,82 @@ TEST(FusedGrasp, PoolsTheThesisPlannersWithTheirOwnParameters)
   EXPECT_GE(sources.size(), 2u) << result.message;
 }
 
+namespace
+{
+/// A pooled planner that always proposes one fixed grasp, named like a thesis planner.
+class FixedGraspPlanner : public GraspPlanner
+{
+public:
+  explicit FixedGraspPlanner(GraspCandidate grasp) : grasp_(std::move(grasp)) {}
+  GraspResult plan(const ObjectView& /*view*/, const GripperModel& /*gripper*/) const override
+  {
+    GraspResult result;
+    result.grasps.push_back(grasp_);
+    return result;
+  }
+  const char* name() const override { return "cshape"; }
+
+private:
+  GraspCandidate grasp_;
+};
+}  // namespace
+
+TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
+{
+  // A can (radius 2.5 cm, 15 cm long) lying along y on the table: its equator is 2.5 cm up,
+  // its top 5 cm. A planner closes across it (along x) from above with the closing line at
+  // the top: the fingertips (2 cm below the line) end at 3 cm, above the equator, and the
+  // can slips out on the lift. Pushed deeper until the palm (2 cm above the line) is
+  // palm_clearance_m = 5 mm over the top, the line is at 3.5 cm, the fingertips at 1.5 cm.
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
+  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.025 }, { 0.0, 1.0, 0.0 }, 0.025, 0.15),
+                                     { camera, 0.002, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspCandidate at_top;
+  at_top.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  at_top.width_m = 0.05;
+
+  const auto pooled_heights = [&](double deepen_m) {
+    FusedParams p = onlyGenerated();
+    p.top_down_directions = 0;
+    p.side_directions = 0;
+    p.max_grasps = 100;
+    p.gripper_fit.palm_clearance_m = 0.005;
+    p.gripper_fit.table_clearance_m = 0.006;
+    p.deepen_pooled_max_m = deepen_m;
+    std::vector<std::unique_ptr<GraspPlanner>> planners;
+    planners.push_back(std::make_unique<FixedGraspPlanner>(at_top));
+    const GraspResult result = FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+    EXPECT_TRUE(result.ok()) << result.message;
+    std::vector<double> heights;
+    for (const GraspCandidate& g : result.grasps)
+    {
+      EXPECT_EQ(g.algorithm, "fused/cshape");
+      EXPECT_NEAR(g.approach().z(), -1.0, 1e-9);  // deeper along the same approach, not turned
+      heights.push_back(g.position().z());
+    }
+    std::sort(heights.begin(), heights.end());
+    return heights;
+  };
+  const std::vector<double> planner_only = pooled_heights(0.0);
+  ASSERT_EQ(planner_only.size(), 1u);
+  EXPECT_NEAR(planner_only.front(), 0.05, 1e-9);
+
+  const std::vector<double> with_deeper = pooled_heights(0.04);
+  ASSERT_EQ(with_deeper.size(), 2u);
+  EXPECT_NEAR(with_deeper.back(), 0.05, 1e-9);  // the planner's own grasp stays in the pool
+  const double fingertips = with_deeper.front() - 0.5 * gripper.finger_depth_m;
+  EXPECT_LT(fingertips, 0.025 - 0.005);  // past the equator
+  EXPECT_GT(fingertips, 0.006 - 1e-6);    // and above the table by table_clearance_m
+  // the palm stays palm_clearance_m (5 mm, one 5 mm step of resolution) above the top
+  const double palm = with_deeper.front() + 0.5 * gripper.finger_depth_m;
+  EXPECT_GE(palm, 0.05 + 0.005 - 1e-3);
+  EXPECT_LE(palm, 0.05 + 0.005 + 0.005 + 1e-3);
+}
+
 TEST(PlannerInput, AnObjectSpanningKilometresIsDegenerateForEveryPlanner)
 {
   // Found by the random views below: principal_axis sized its sweep by the extent and threw

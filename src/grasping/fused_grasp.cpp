@@ -165,6 +165,8 @@ std::string FusedParams::validate() const
     why << "max_grasps must be >= 1; ";
   if (!(side_spread_rad >= 0.0 && side_spread_rad <= M_PI))
     why << "side_spread_rad must be in [0, pi]; ";
+  if (!(deepen_pooled_max_m >= 0.0 && deepen_pooled_max_m <= 0.2))
+    why << "deepen_pooled_max_m must be in [0, 0.2] m; ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
     why << "min_success_probability must be in [0, 1]; ";
   why << gripper_fit.validate() << model.validate();
@@ -206,12 +208,37 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   std::vector<Generated> generated;
   topDownCandidates(view, extent, gripper, params_, generated);
   sideCandidates(view, extent, gripper, params_, generated);
-  if (!generated.empty() && params_.gripper_fit.enabled)
+  if (params_.gripper_fit.enabled && (!generated.empty() || params_.deepen_pooled_max_m > 0.0))
   {
     GripperVolumeCheck check(gripper, params_.gripper_fit);
     check.addSeen(*view.cloud);
     if (view.has_table_plane)
       check.setTable(view.table_plane);
+    if (params_.deepen_pooled_max_m > 0.0)
+    {
+      GripperFitParams deepen = params_.gripper_fit;
+      deepen.max_advance_m = params_.deepen_pooled_max_m;
+      deepen.max_table_tilt_rad = 0.0;
+      GripperVolumeCheck deeper_check(gripper, deepen);
+      deeper_check.addSeen(*view.cloud);
+      if (view.has_table_plane)
+        deeper_check.setTable(view.table_plane);
+      const std::size_t planned = pool.size();
+      std::size_t deepened = 0;
+      for (std::size_t i = 0; i < planned; ++i)
+      {
+        const Eigen::Isometry3d& pose = pool[i].grasp.pose;
+        const GripperFit fitted = deeper_check.fitDeepest(pose, pool[i].grasp.width_m);
+        // a copy only where the hand really went deeper (one 5 mm step, less a back-off)
+        if (!fitted.ok || (fitted.pose.translation() - pose.translation()).dot(pose.linear().col(0)) < 0.004)
+          continue;
+        Generated copy = pool[i];
+        copy.grasp.pose = fitted.pose;
+        pool.push_back(std::move(copy));
+        ++deepened;
+      }
+      summary << "deepened: " << deepened << "; ";
+    }
     std::size_t kept = 0;
     for (auto& g : generated)
     {

@@ -37,6 +37,12 @@ struct FusedParams
   /// points (C-shape ~21 ms at 10k) while a 5 mm voxel-filtered object at 0.6 m has a few
   /// hundred to two thousand points: the cap only bites on dense clouds.
   std::size_t max_pooled_points = 2000;
+  /// Each pooled planner grasp is also offered pushed deeper along its approach, up to this far
+  /// in 5 mm steps, the deepest pose the hand check (gripper_fit) passes (0 = never). Beyond the
+  /// thesis: its planners put the closing line where they found the contacts, often the top
+  /// of a round object lying down, and in physics a hand whose fingertips end above the
+  /// equator lets it slip out on the lift. Both poses are pooled; the model ranks them.
+  double deepen_pooled_max_m = 0.0;
   /// Grasps returned (best first) and the success probability a grasp needs to be returned.
   std::size_t max_grasps = 10;
   double min_success_probability = 0.0;
