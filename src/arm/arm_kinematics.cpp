@@ -275,7 +275,28 @@ bool ArmKinematics::withinLimits(const Eigen::VectorXd& q, double tolerance_rad)
 {
   if (q.size() != static_cast<Eigen::Index>(dof()) || !q.allFinite())
     return false;
-  return ((q.array() >= lower_rad_.array() - tolerance_rad) && (q.array() <= upper_rad_.array() + tolerance_rad)).all();
+  for (Eigen::Index j = 0; j < q.size(); ++j)
+    if (!isContinuous(static_cast<std::size_t>(j)) &&
+        (q[j] < lower_rad_[j] - tolerance_rad || q[j] > upper_rad_[j] + tolerance_rad))
+      return false;
+  return true;
+}
+
+bool ArmKinematics::isContinuous(std::size_t joint) const
+{
+  return joint < dof() && model_->continuous[joint] &&
+         upper_rad_[static_cast<Eigen::Index>(joint)] - lower_rad_[static_cast<Eigen::Index>(joint)] >= 2.0 * kPi - 1e-9;
+}
+
+Eigen::VectorXd ArmKinematics::nearestEquivalent(const Eigen::VectorXd& q, const Eigen::VectorXd& reference) const
+{
+  Eigen::VectorXd out = q;
+  if (q.size() != reference.size())
+    return out;
+  for (Eigen::Index j = 0; j < q.size(); ++j)
+    if (isContinuous(static_cast<std::size_t>(j)) && std::isfinite(q[j]) && std::isfinite(reference[j]))
+      out[j] = q[j] - 2.0 * kPi * std::round((q[j] - reference[j]) / (2.0 * kPi));
+  return out;
 }
 
 Eigen::VectorXd ArmKinematics::randomConfiguration(std::mt19937& rng) const
@@ -435,14 +456,16 @@ std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, 
     }
     if (!found || !withinLimits(q))
       continue;
+    q = nearestEquivalent(q, seed);  // a continuous joint turns the short way from the seed
     const bool duplicate = std::any_of(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& s) {
       return (s - q).cwiseAbs().maxCoeff() < params.distinct_solution_rad;
     });
     if (!duplicate)
       solutions.push_back(q);
   }
+  const Eigen::VectorXd& rank_from = seed.allFinite() ? seed : seed_in_limits;
   std::sort(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-    return (a - seed_in_limits).squaredNorm() < (b - seed_in_limits).squaredNorm();
+    return (a - rank_from).squaredNorm() < (b - rank_from).squaredNorm();
   });
   return solutions;
 }
