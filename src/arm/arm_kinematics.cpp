@@ -241,6 +241,7 @@ ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const s
   kin.lower_rad_ = Eigen::Map<Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
   kin.upper_rad_ = Eigen::Map<Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
   kin.velocity_rad_s_ = Eigen::Map<Eigen::VectorXd>(velocity.data(), static_cast<Eigen::Index>(velocity.size()));
+  kin.updateContinuousJoints();
   return kin;
 }
 
@@ -259,6 +260,7 @@ bool ArmKinematics::setJointLimits(const Eigen::VectorXd& lower_rad, const Eigen
     return false;
   lower_rad_ = lower_rad;
   upper_rad_ = upper_rad;
+  updateContinuousJoints();
   return true;
 }
 
@@ -275,17 +277,26 @@ bool ArmKinematics::withinLimits(const Eigen::VectorXd& q, double tolerance_rad)
 {
   if (q.size() != static_cast<Eigen::Index>(dof()) || !q.allFinite())
     return false;
-  for (Eigen::Index j = 0; j < q.size(); ++j)
-    if (!isContinuous(static_cast<std::size_t>(j)) &&
-        (q[j] < lower_rad_[j] - tolerance_rad || q[j] > upper_rad_[j] + tolerance_rad))
-      return false;
-  return true;
+  return ((q.array() >= check_lower_rad_ - tolerance_rad) && (q.array() <= check_upper_rad_ + tolerance_rad)).all();
 }
 
-bool ArmKinematics::isContinuous(std::size_t joint) const
+bool ArmKinematics::isContinuous(std::size_t joint) const { return joint < wraps_.size() && wraps_[joint]; }
+
+void ArmKinematics::updateContinuousJoints()
 {
-  return joint < dof() && model_->continuous[joint] &&
-         upper_rad_[static_cast<Eigen::Index>(joint)] - lower_rad_[static_cast<Eigen::Index>(joint)] >= 2.0 * kPi - 1e-9;
+  wraps_.assign(dof(), false);
+  check_lower_rad_ = lower_rad_.array();
+  check_upper_rad_ = upper_rad_.array();
+  for (std::size_t j = 0; j < dof(); ++j)
+  {
+    const Eigen::Index i = static_cast<Eigen::Index>(j);
+    wraps_[j] = model_->continuous[j] && upper_rad_[i] - lower_rad_[i] >= 2.0 * kPi - 1e-9;
+    if (wraps_[j])
+    {
+      check_lower_rad_[i] = -std::numeric_limits<double>::infinity();
+      check_upper_rad_[i] = std::numeric_limits<double>::infinity();
+    }
+  }
 }
 
 Eigen::VectorXd ArmKinematics::nearestEquivalent(const Eigen::VectorXd& q, const Eigen::VectorXd& reference) const

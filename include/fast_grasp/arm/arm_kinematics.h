@@ -91,9 +91,16 @@ public:
   struct Model;  // parsed chain (KDL-free view); defined in the source
 
 private:
+  /// Recomputes wraps_ and the limits withinLimits() compares against (every validity check
+  /// of a planner runs it) from the model and the current limits.
+  void updateContinuousJoints();
+
   std::shared_ptr<const Model> model_;
   Eigen::VectorXd lower_rad_;
   Eigen::VectorXd upper_rad_;
+  std::vector<bool> wraps_;             // isContinuous per joint
+  Eigen::ArrayXd check_lower_rad_;      // lower_rad_, -inf on continuous joints
+  Eigen::ArrayXd check_upper_rad_;      // upper_rad_, +inf on continuous joints
   Eigen::VectorXd velocity_rad_s_;
 };
 
