@@ -6,6 +6,8 @@
 #include "fast_grasp/arm/trajectory_timing.h"
 
 #include <ompl/util/RandomNumbers.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/base/ScopedState.h>
 
 #include <gtest/gtest.h>
 
@@ -325,6 +327,23 @@ TEST(Jaco, ContinuousJointsTurnTheShortWay)
   EXPECT_LT(traj.back().time_from_start_s, 1.0);
   for (std::size_t i = 1; i < traj.size(); ++i)
     EXPECT_LT((traj[i].positions - traj[i - 1].positions).cwiseAbs().maxCoeff(), 0.05) << i;
+
+  // Sampling near a state moves every joint up to the given distance, as on a flat joint
+  // space (OMPL's compound sampler would scale it by each of the five components' weight
+  // share: at most 0.1 rad per joint, 0.25 rad in all, for 0.5).
+  const auto setup = planner.makeSetup(start, { goal }, motion);
+  const ompl::base::StateSpacePtr& space = setup->getStateSpace();
+  const ompl::base::StateSamplerPtr sampler = space->allocDefaultStateSampler();
+  ompl::base::ScopedState<> near_state(space), sample(space);
+  near_state = setup->getProblemDefinition()->getStartState(0);
+  double farthest = 0.0;
+  for (int i = 0; i < 1000; ++i)
+  {
+    sampler->sampleUniformNear(sample.get(), near_state.get(), 0.5);
+    farthest = std::max(farthest, space->distance(sample.get(), near_state.get()));
+  }
+  EXPECT_GT(farthest, 0.8);
+  EXPECT_LE(farthest, 0.5 * std::sqrt(6.0) + 1e-9);
 
   // IK agrees: a pose whose joint 6 is past +pi, seeded near it, comes back past +pi (not
   // 2 pi away at -155 deg), and that counts as within the limits.
