@@ -376,9 +376,13 @@ class GraspPipelineTest(unittest.TestCase):
         self.assertTrue(np.all(np.diff(t) > 0), "time_from_start must increase")
         lower = np.array([j["lower"] for j in chain.moving])
         upper = np.array([j["upper"] for j in chain.moving])
-        if "joint_limits_rad" in arm:  # the robot config narrows the URDF's (continuous joints: +-pi)
-            lower = np.maximum(lower, -np.array(arm["joint_limits_rad"]))
-            upper = np.minimum(upper, np.array(arm["joint_limits_rad"]))
+        if "joint_limits_rad" in arm:
+            # The robot config narrows the URDF's; a continuous joint given a full turn (+-pi)
+            # wraps (any angle: the trajectory may pass +-pi), a narrower range bounds it.
+            limit = np.array(arm["joint_limits_rad"])
+            wraps = np.isinf(upper) & (limit >= np.pi - 1e-9)
+            lower = np.where(wraps, lower, np.maximum(lower, -limit))
+            upper = np.where(wraps, upper, np.minimum(upper, limit))
         self.assertTrue(np.all(q >= lower - 1e-6) and np.all(q <= upper + 1e-6), "joint limits violated")
         vmax = np.array(arm["velocity_limit_rad_s"])
         amax = np.array(arm["acceleration_limit_rad_s2"])

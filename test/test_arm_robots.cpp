@@ -3,8 +3,11 @@
 // a known self-collision, and a solved shelf scene per arm.
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/trajectory_timing.h"
 
 #include <ompl/util/RandomNumbers.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/base/ScopedState.h>
 
 #include <gtest/gtest.h>
 
@@ -268,6 +271,88 @@ TEST(Jaco, FoldedElbowPutsTheHandOnTheShoulder)
 }
 
 TEST(Jaco, ShelfPickIsSolved) { expectShelfPickSolved("jaco"); }
+
+TEST(Jaco, ContinuousJointsTurnTheShortWay)
+{
+  // The URDF declares joints 1, 4, 5, 6 continuous; jaco.yaml gives them a full turn.
+  const GraspExecutionParams p = robotParams("jaco");
+  const RobotCollision collision = makeRobotCollision(p);
+  const ArmKinematics& kin = collision.kinematics();
+  const std::vector<bool> continuous = { true, false, false, true, true, true };
+  for (std::size_t j = 0; j < 6; ++j)
+    EXPECT_EQ(kin.isContinuous(j), continuous[j]) << j;
+  // Start and goal 350 deg apart on joint 1 (and 345 deg on joint 6, the start given past
+  // +pi): the short way is 10 deg (15 deg) the other way round.
+  const double deg = kPi / 180.0;
+  Eigen::VectorXd start = p.robot.homePose(kin.jointNames()), goal = start;
+  start[0] = -175.0 * deg;
+  goal[0] = 175.0 * deg;
+  start[5] = 190.0 * deg;
+  goal[5] = -155.0 * deg;
+  const ArmMotionPlanner planner(collision);
+  MotionPlanningParams motion = p.motion;
+  motion.planner = "RRTConnect";
+  const MotionPlanResult plan = planner.plan(start, { goal }, motion);
+  ASSERT_TRUE(plan.ok()) << plan.message;
+  EXPECT_LT((plan.path.front() - start).norm(), 1e-12);
+  double travel_1 = 0.0, travel_6 = 0.0;
+  for (std::size_t k = 0; k < plan.path.size(); ++k)
+  {
+    const Eigen::VectorXd& q = plan.path[k];
+    EXPECT_TRUE(kin.withinLimits(q));
+    for (const Eigen::Index j : { 1, 2 })  // the bounded joints stay within their limits
+      EXPECT_TRUE(q[j] >= kin.lowerLimits()[j] && q[j] <= kin.upperLimits()[j]) << k;
+    if (k == 0)
+      continue;
+    EXPECT_LT((q - plan.path[k - 1]).cwiseAbs().maxCoeff(), 1.0) << "jump at waypoint " << k;
+    travel_1 += std::abs(q[0] - plan.path[k - 1][0]);
+    travel_6 += std::abs(q[5] - plan.path[k - 1][5]);
+  }
+  EXPECT_NEAR(travel_1, 10.0 * deg, 1.0 * deg);
+  EXPECT_NEAR(travel_6, 15.0 * deg, 1.0 * deg);
+  // The path ends at the goal's pose, at the angles reached the short way (-185, 205 deg).
+  EXPECT_NEAR(plan.path.back()[0], -185.0 * deg, 1e-6);
+  EXPECT_NEAR(plan.path.back()[5], 205.0 * deg, 1e-6);
+  EXPECT_LT((kin.fk(plan.path.back()).matrix() - kin.fk(goal).matrix()).norm(), 1e-6);
+  EXPECT_NEAR(plan.path_length_rad, std::hypot(10.0, 15.0) * deg, 0.05);
+
+  // Timing follows the 10 / 15 deg, not a 350 deg swing: at 36 deg/s (48 deg/s on joint 6)
+  // and 2 rad/s^2, well under a second; no sample jumps.
+  TimingLimits limits;
+  limits.velocity_rad_s = p.velocity_limit_rad_s;
+  limits.acceleration_rad_s2 = p.acceleration_limit_rad_s2;
+  std::vector<TrajectoryPoint> traj;
+  std::string why;
+  ASSERT_TRUE(timeParameterize(plan.path, limits, traj, &why)) << why;
+  EXPECT_LT(traj.back().time_from_start_s, 1.0);
+  for (std::size_t i = 1; i < traj.size(); ++i)
+    EXPECT_LT((traj[i].positions - traj[i - 1].positions).cwiseAbs().maxCoeff(), 0.05) << i;
+
+  // Sampling near a state moves every joint up to the given distance, as on a flat joint
+  // space (OMPL's compound sampler would scale it by each of the five components' weight
+  // share: at most 0.1 rad per joint, 0.25 rad in all, for 0.5).
+  const auto setup = planner.makeSetup(start, { goal }, motion);
+  const ompl::base::StateSpacePtr& space = setup->getStateSpace();
+  const ompl::base::StateSamplerPtr sampler = space->allocDefaultStateSampler();
+  ompl::base::ScopedState<> near_state(space), sample(space);
+  near_state = setup->getProblemDefinition()->getStartState(0);
+  double farthest = 0.0;
+  for (int i = 0; i < 1000; ++i)
+  {
+    sampler->sampleUniformNear(sample.get(), near_state.get(), 0.5);
+    farthest = std::max(farthest, space->distance(sample.get(), near_state.get()));
+  }
+  EXPECT_GT(farthest, 0.8);
+  EXPECT_LE(farthest, 0.5 * std::sqrt(6.0) + 1e-9);
+
+  // IK agrees: a pose whose joint 6 is past +pi, seeded near it, comes back past +pi (not
+  // 2 pi away at -155 deg), and that counts as within the limits.
+  const std::vector<Eigen::VectorXd> sols = kin.ik(kin.fk(plan.path.back()), start);
+  ASSERT_FALSE(sols.empty());
+  EXPECT_NEAR(sols.front()[5], 205.0 * deg, 1e-3);
+  EXPECT_NEAR(sols.front()[0], -185.0 * deg, 1e-3);
+  EXPECT_TRUE(kin.withinLimits(sols.front()));
+}
 
 TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
 {

@@ -241,6 +241,7 @@ ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const s
   kin.lower_rad_ = Eigen::Map<Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
   kin.upper_rad_ = Eigen::Map<Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
   kin.velocity_rad_s_ = Eigen::Map<Eigen::VectorXd>(velocity.data(), static_cast<Eigen::Index>(velocity.size()));
+  kin.updateContinuousJoints();
   return kin;
 }
 
@@ -259,6 +260,7 @@ bool ArmKinematics::setJointLimits(const Eigen::VectorXd& lower_rad, const Eigen
     return false;
   lower_rad_ = lower_rad;
   upper_rad_ = upper_rad;
+  updateContinuousJoints();
   return true;
 }
 
@@ -275,7 +277,37 @@ bool ArmKinematics::withinLimits(const Eigen::VectorXd& q, double tolerance_rad)
 {
   if (q.size() != static_cast<Eigen::Index>(dof()) || !q.allFinite())
     return false;
-  return ((q.array() >= lower_rad_.array() - tolerance_rad) && (q.array() <= upper_rad_.array() + tolerance_rad)).all();
+  return ((q.array() >= check_lower_rad_ - tolerance_rad) && (q.array() <= check_upper_rad_ + tolerance_rad)).all();
+}
+
+bool ArmKinematics::isContinuous(std::size_t joint) const { return joint < wraps_.size() && wraps_[joint]; }
+
+void ArmKinematics::updateContinuousJoints()
+{
+  wraps_.assign(dof(), false);
+  check_lower_rad_ = lower_rad_.array();
+  check_upper_rad_ = upper_rad_.array();
+  for (std::size_t j = 0; j < dof(); ++j)
+  {
+    const Eigen::Index i = static_cast<Eigen::Index>(j);
+    wraps_[j] = model_->continuous[j] && upper_rad_[i] - lower_rad_[i] >= 2.0 * kPi - 1e-9;
+    if (wraps_[j])
+    {
+      check_lower_rad_[i] = -std::numeric_limits<double>::infinity();
+      check_upper_rad_[i] = std::numeric_limits<double>::infinity();
+    }
+  }
+}
+
+Eigen::VectorXd ArmKinematics::nearestEquivalent(const Eigen::VectorXd& q, const Eigen::VectorXd& reference) const
+{
+  Eigen::VectorXd out = q;
+  if (q.size() != reference.size())
+    return out;
+  for (Eigen::Index j = 0; j < q.size(); ++j)
+    if (isContinuous(static_cast<std::size_t>(j)) && std::isfinite(q[j]) && std::isfinite(reference[j]))
+      out[j] = q[j] - 2.0 * kPi * std::round((q[j] - reference[j]) / (2.0 * kPi));
+  return out;
 }
 
 Eigen::VectorXd ArmKinematics::randomConfiguration(std::mt19937& rng) const
@@ -435,14 +467,16 @@ std::vector<Eigen::VectorXd> ArmKinematics::ik(const Eigen::Isometry3d& target, 
     }
     if (!found || !withinLimits(q))
       continue;
+    q = nearestEquivalent(q, seed);  // a continuous joint turns the short way from the seed
     const bool duplicate = std::any_of(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& s) {
       return (s - q).cwiseAbs().maxCoeff() < params.distinct_solution_rad;
     });
     if (!duplicate)
       solutions.push_back(q);
   }
+  const Eigen::VectorXd& rank_from = seed.allFinite() ? seed : seed_in_limits;
   std::sort(solutions.begin(), solutions.end(), [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-    return (a - seed_in_limits).squaredNorm() < (b - seed_in_limits).squaredNorm();
+    return (a - rank_from).squaredNorm() < (b - rank_from).squaredNorm();
   });
   return solutions;
 }

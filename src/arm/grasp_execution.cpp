@@ -562,19 +562,27 @@ GraspPlanResult planGraspMotion(const RobotCollision& collision, const Eigen::Ve
                 " (" + plan.message + ")";
       return false;
     }
-    // The goal set was reached at one of the candidates' pre-grasps.
+    // The goal set was reached at one of the candidates' pre-grasps (on a continuous joint
+    // possibly a full turn away from the candidate's angle: the path went the short way).
     std::size_t chosen = 0;
     double best = std::numeric_limits<double>::infinity();
     for (std::size_t c = 0; c < candidates.size(); ++c)
     {
-      const double d = (candidates[c].approach.front() - plan.path.back()).norm();
+      const double d = (kin.nearestEquivalent(candidates[c].approach.front(), plan.path.back()) - plan.path.back()).norm();
       if (d < best)
       {
         best = d;
         chosen = c;
       }
     }
-    const GoalCandidate& cand = candidates[chosen];
+    // The approach and lift continue from where the path ends: shifted by those full turns.
+    GoalCandidate cand = candidates[chosen];
+    const Eigen::VectorXd turns =
+        kin.nearestEquivalent(cand.approach.front(), plan.path.back()) - cand.approach.front();
+    for (Eigen::VectorXd& q : cand.approach)
+      q += turns;
+    for (Eigen::VectorXd& q : cand.lift)
+      q += turns;
     std::vector<TrajectoryPoint> to_pregrasp, approach, lift;
     std::string timing_error;
     std::vector<Eigen::VectorXd> free_path = plan.path;

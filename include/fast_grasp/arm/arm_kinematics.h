@@ -52,7 +52,16 @@ public:
   bool setJointLimits(const Eigen::VectorXd& lower_rad, const Eigen::VectorXd& upper_rad);
   bool setVelocityLimits(const Eigen::VectorXd& velocity_rad_s);
 
+  /// Continuous joints (isContinuous) are within their limits at any finite angle.
   bool withinLimits(const Eigen::VectorXd& q, double tolerance_rad = 1e-9) const;
+  /// True for a joint the URDF declares continuous whose position limits span a full turn
+  /// (2 pi; the limits are then only where sampling and IK restarts draw from): it turns
+  /// without end, and q and q + 2 pi k are the same pose. A robot config that narrows such a
+  /// joint below a full turn makes it a bounded joint.
+  bool isContinuous(std::size_t joint) const;
+  /// q with every continuous joint shifted by a multiple of 2 pi to within pi of `reference`
+  /// (the same pose, the short way round from the reference); other joints unchanged.
+  Eigen::VectorXd nearestEquivalent(const Eigen::VectorXd& q, const Eigen::VectorXd& reference) const;
   /// Uniform random joint vector within the position limits.
   Eigen::VectorXd randomConfiguration(std::mt19937& rng) const;
 
@@ -69,7 +78,8 @@ public:
   Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian(const Eigen::VectorXd& q) const;
 
   /// Every distinct solution found within params.timeout_s (up to params.max_solutions),
-  /// within the joint limits, ranked by distance from `seed` (nearest first). The first
+  /// within the joint limits, ranked by distance from `seed` (nearest first); continuous
+  /// joints are returned within pi of the seed's angle (nearestEquivalent). The first
   /// attempt starts at `seed`, the rest at random joint vectors. Empty when none was found
   /// (unreachable pose, NaN pose, wrong seed size).
   std::vector<Eigen::VectorXd> ik(const Eigen::Isometry3d& target, const Eigen::VectorXd& seed,
@@ -81,9 +91,16 @@ public:
   struct Model;  // parsed chain (KDL-free view); defined in the source
 
 private:
+  /// Recomputes wraps_ and the limits withinLimits() compares against (every validity check
+  /// of a planner runs it) from the model and the current limits.
+  void updateContinuousJoints();
+
   std::shared_ptr<const Model> model_;
   Eigen::VectorXd lower_rad_;
   Eigen::VectorXd upper_rad_;
+  std::vector<bool> wraps_;             // isContinuous per joint
+  Eigen::ArrayXd check_lower_rad_;      // lower_rad_, -inf on continuous joints
+  Eigen::ArrayXd check_upper_rad_;      // upper_rad_, +inf on continuous joints
   Eigen::VectorXd velocity_rad_s_;
 };
 
