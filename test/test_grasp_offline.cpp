@@ -19,6 +19,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <iterator>
@@ -677,6 +678,57 @@ TEST(OfflinePipeline, PcdReaderRefusesWhatTheConversionWouldMisread)
   ASSERT_NE(read, nullptr) << error;
   ASSERT_EQ(read->size(), box.size());
   EXPECT_TRUE(read->points.back().getVector3fMap().isApprox(box.points.back().getVector3fMap()));
+}
+
+TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
+{
+  // PCL sizes its buffer at the POINTS line and keeps parsing after DATA; its ASCII reader then
+  // writes the final layout's points into that buffer. Under valgrind, PCL 1.13 writes past the
+  // 8-byte buffer of this file (2 points x 1 float) 2 points x 8 floats; the fuzzer's version
+  // (crash_fields_after_points) corrupted the heap inside libpcl_io.
+  std::string error;
+  const auto write = [](const std::string& name, const std::string& text) {
+    const std::string path = ::testing::TempDir() + "/" + name + ".pcd";
+    std::ofstream(path) << text;
+    return path;
+  };
+  const std::string count_after_points = write("count_after_points", "VERSION 0.7\nFIELDS x\nSIZE 4\nTYPE F\nCOUNT 1\n"
+                                                                     "POINTS 2\nCOUNT 8\nDATA ascii\n"
+                                                                     "1 2 3 4 5 6 7 8\n1 2 3 4 5 6 7 8\n");
+  EXPECT_EQ(fast_grasp::readPcdCloud(count_after_points, error), nullptr);
+  EXPECT_NE(error.find("POINTS line comes before"), std::string::npos) << error;
+  error.clear();
+  // (It also has an unknown TYPE '!'; either way the header check refuses it before PCL reads.)
+  EXPECT_EQ(fast_grasp::readPcdCloud(kSourceDir + "/test/fuzz/corpus/pcd_input/crash_fields_after_points", error),
+            nullptr);
+  EXPECT_NE(error.find("crash_fields_after_points: "), std::string::npos) << error;
+  // TYPE F with SIZE 8 makes x a double; a later SIZE 4 packs the points as floats.
+  const std::string size_after_type = write("size_after_type", "VERSION 0.7\nFIELDS x y z\nSIZE 8 4 4\nTYPE F F F\n"
+                                                               "SIZE 4 4 4\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+                                                               "POINTS 1\nDATA ascii\n1 2 3\n");
+  EXPECT_EQ(fast_grasp::readPcdCloud(size_after_type, error), nullptr);
+  EXPECT_NE(error.find("lines disagree (field 'y' at byte 4, the fields before it end at byte 8)"), std::string::npos)
+      << error;
+  // 65536 x 65537 wraps to 65536 in PCL's 32-bit check against POINTS.
+  const std::string wrapping = write("wrapping_size", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                                                      "COUNT 1 1 1\nWIDTH 65536\nHEIGHT 65537\nPOINTS 65536\n"
+                                                      "DATA ascii\n1 2 3\n");
+  EXPECT_EQ(fast_grasp::readPcdCloud(wrapping, error), nullptr);
+  EXPECT_NE(error.find("WIDTH x HEIGHT is not POINTS"), std::string::npos) << error;
+  const std::string unknown_type = write("unknown_type", "VERSION 0.7\nFIELDS x y z\nSIZE 2 4 4\nTYPE F F F\n"
+                                                         "COUNT 1 1 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
+  EXPECT_EQ(fast_grasp::readPcdCloud(unknown_type, error), nullptr);
+  EXPECT_NE(error.find("field 'x': its SIZE and TYPE name no known type"), std::string::npos) << error;
+  // What PCL writes passes: every encoding, padding fields ('_') and colour included.
+  for (const auto& entry : std::filesystem::directory_iterator(kSourceDir + "/test/fuzz/corpus/pcd_input"))
+  {
+    if (entry.path().filename().string().rfind("seed_", 0) != 0)
+      continue;
+    error.clear();
+    const auto cloud = fast_grasp::readPcdCloud(entry.path().string(), error);
+    ASSERT_NE(cloud, nullptr) << entry.path() << ": " << error;
+    EXPECT_GT(cloud->size(), 0u) << entry.path();
+  }
 }
 
 TEST(GraspOfflineBadInput, WrongTopicAndFrameFail)
