@@ -4,7 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
 #include <numeric>
+#include <string>
 
 namespace fast_grasp
 {
@@ -284,6 +290,49 @@ TEST(XtionRenderer, MissingMeshFileIsReportedNotThrown)
   std::string error;
   EXPECT_FALSE(loadMeshFile("/nonexistent/mesh.stl", mesh, error));
   EXPECT_FALSE(error.empty());
+}
+
+/// A fuzz corpus input of the mesh_loader target (one format byte, then the file) written as
+/// an STL file.
+std::string stlFromMeshCorpus(const std::string& corpus_file, const std::string& name,
+                              const std::function<void(std::string&)>& edit = {})
+{
+  std::ifstream in(std::string(FAST_GRASP_SOURCE_DIR) + "/test/fuzz/corpus/mesh_loader/" + corpus_file,
+                   std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_FALSE(bytes.empty()) << corpus_file;
+  bytes.erase(0, 1);
+  if (edit)
+    edit(bytes);
+  const std::string path = ::testing::TempDir() + "/" + name + ".stl";
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+TEST(XtionRenderer, StlFormatIsDecidedBeforeVtkReadsIt)
+{
+  TriangleMesh ascii, binary, mesh;
+  std::string error;
+  ASSERT_TRUE(loadMeshFile(stlFromMeshCorpus("seed_box_ascii.stl", "box_ascii"), ascii, error)) << error;
+  ASSERT_TRUE(loadMeshFile(stlFromMeshCorpus("seed_box_binary.stl", "box_binary"), binary, error)) << error;
+  EXPECT_EQ(ascii.triangles.size(), 12u);
+  EXPECT_EQ(binary.triangles.size(), 12u);
+  // Binary exporters often start the 80-byte header with "solid": the size decides.
+  const std::string solid_header = stlFromMeshCorpus("seed_box_binary.stl", "box_binary_solid_header",
+                                                     [](std::string& b) { b.replace(0, 5, "solid"); });
+  ASSERT_TRUE(loadMeshFile(solid_header, mesh, error)) << error;
+  EXPECT_EQ(mesh.triangles.size(), 12u);
+  // The fuzzer's file: "solid", then binary bytes; VTK read it as binary and allocated 18 GB.
+  error.clear();
+  EXPECT_FALSE(loadMeshFile(stlFromMeshCorpus("crash_stl_solid_but_binary", "solid_but_binary"), mesh, error));
+  EXPECT_NE(error.find("starts like an ASCII STL ('solid') but holds binary bytes"), std::string::npos) << error;
+  // A binary STL declaring one triangle more than it holds.
+  const std::string short_binary = stlFromMeshCorpus("seed_box_binary.stl", "box_binary_short", [](std::string& b) {
+    const std::uint32_t triangles = 13;
+    std::memcpy(&b[80], &triangles, sizeof(triangles));
+  });
+  EXPECT_FALSE(loadMeshFile(short_binary, mesh, error));
+  EXPECT_NE(error.find("nor a binary one (684 bytes, not 84 + 50 x the 13 triangles"), std::string::npos) << error;
 }
 
 }  // namespace fast_grasp
