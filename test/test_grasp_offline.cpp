@@ -710,7 +710,8 @@ TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
   EXPECT_NE(error.find("lines disagree (field 'y' at byte 4, the fields before it end at byte 8)"), std::string::npos)
       << error;
   // 65536 x 65537 wraps to 65536 in PCL's 32-bit check against POINTS.
-  const std::string wrapping = write("wrapping_size", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+  // (The comment line makes the file large enough for what readHeader allocates.)
+  const std::string wrapping = write("wrapping_size", "# " + std::string(8000, 'c') + "\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
                                                       "COUNT 1 1 1\nWIDTH 65536\nHEIGHT 65537\nPOINTS 65536\n"
                                                       "DATA ascii\n1 2 3\n");
   EXPECT_EQ(fast_grasp::readPcdCloud(wrapping, error), nullptr);
@@ -719,6 +720,15 @@ TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
                                                          "COUNT 1 1 1\nPOINTS 1\nDATA ascii\n1 2 3\n");
   EXPECT_EQ(fast_grasp::readPcdCloud(unknown_type, error), nullptr);
   EXPECT_NE(error.find("field 'x': its SIZE and TYPE name no known type"), std::string::npos) << error;
+  // readHeader itself allocates POINTS x the point size so far: COUNT 1666...6 asked 17 GB.
+  error.clear();
+  EXPECT_EQ(fast_grasp::readPcdCloud(kSourceDir + "/test/fuzz/corpus/pcd_input/crash_count_overflow_oom", error),
+            nullptr);
+  EXPECT_NE(error.find("its header makes PCL allocate"), std::string::npos) << error;
+  const std::string huge_points = write("huge_points", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                                                       "COUNT 1 1 1\nPOINTS 1000000000\nDATA ascii\n1 2 3\n");
+  EXPECT_EQ(fast_grasp::readPcdCloud(huge_points, error), nullptr);
+  EXPECT_NE(error.find("allocate 12000000000 bytes"), std::string::npos) << error;
   // What PCL writes passes: every encoding, padding fields ('_') and colour included.
   for (const auto& entry : std::filesystem::directory_iterator(kSourceDir + "/test/fuzz/corpus/pcd_input"))
   {

@@ -9,11 +9,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <limits>
 #include <numeric>
 #include <random>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -215,6 +219,61 @@ std::string stlFileProblem(const std::string& path)
            " bytes, not 84 + 50 x the " + std::to_string(triangles) + " triangles bytes 80-83 declare)";
   return "";
 }
+
+/// Why VTK's OBJ reader must not be given the OBJ file at `path`, or "" when it may. VTK 9.1's
+/// vtkOBJReader dereferences a null texture-coordinate array when a face vertex names a texture
+/// coordinate ("4/1", or the empty "4/") and the file has no "vt" line (a SEGV while fuzzing,
+/// test/fuzz/corpus/mesh_loader/crash_obj_texture_index_without_vt). Every face vertex must be
+/// v, v/vt, v/vt/vn or v//vn with each index (1-based, or negative from the end) naming an
+/// existing v, vt or vn line.
+std::string objFileProblem(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary);
+  if (!file)
+    return "cannot open it";
+  std::vector<std::string> lines;
+  long counts[3] = { 0, 0, 0 };  // v, vt, vn
+  for (std::string line; std::getline(file, line);)
+  {
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    counts[0] += keyword == "v";
+    counts[1] += keyword == "vt";
+    counts[2] += keyword == "vn";
+    if (keyword == "f")
+      lines.push_back(line);
+  }
+  static const char* const kNames[3] = { "vertex", "texture coordinate", "normal" };
+  for (const std::string& line : lines)
+  {
+    std::istringstream words(line);
+    std::string vertex;
+    words >> vertex;  // "f"
+    while (words >> vertex)
+    {
+      std::vector<std::string> parts(1);
+      for (const char c : vertex)
+        if (c == '/')
+          parts.emplace_back();
+        else
+          parts.back().push_back(c);
+      if (parts.size() > 3 || (parts.size() == 2 && parts[1].empty()) || (parts.size() == 3 && parts[2].empty()))
+        return "face vertex '" + vertex + "' is not v, v/vt, v/vt/vn or v//vn";
+      for (std::size_t k = 0; k < parts.size(); ++k)
+      {
+        if (k == 1 && parts[k].empty())
+          continue;  // v//vn
+        char* end = nullptr;
+        const long index = std::strtol(parts[k].c_str(), &end, 10);
+        if (parts[k].empty() || *end != '\0' || index == 0 || std::labs(index) > counts[k])
+          return "face vertex '" + vertex + "' names " + kNames[k] + " " + parts[k] + " of " +
+                 std::to_string(counts[k]);
+      }
+    }
+  }
+  return "";
+}
 }  // namespace
 
 bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& error)
@@ -225,9 +284,10 @@ bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& erro
   // and PCL's PLY reader is the one OSS-Fuzz covers. STL and OBJ stay with loadPolygonFile.
   const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
   const bool stl = path.size() >= 4 && path.compare(path.size() - 4, 4, ".stl") == 0;
-  if (stl)
+  const bool obj = path.size() >= 4 && path.compare(path.size() - 4, 4, ".obj") == 0;
+  if (stl || obj)
   {
-    const std::string problem = stlFileProblem(path);
+    const std::string problem = stl ? stlFileProblem(path) : objFileProblem(path);
     if (!problem.empty())
     {
       error = "mesh '" + path + "': " + problem;

@@ -11,8 +11,10 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <locale>
 #include <numeric>
 #include <sstream>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -59,6 +61,70 @@ void setSensorPose(CloudXYZ& cloud, const Eigen::Vector3f& origin)
   cloud.sensor_orientation_ = look.norm() > 1e-6f ? Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), look)
                                                   : Eigen::Quaternionf::Identity();
 }
+/// The largest buffer PCDReader::readHeader (PCL 1.13) allocates while parsing the header of
+/// `path`: it resizes the data at every POINTS line to POINTS x the point size of the lines read
+/// so far, before any check (a 255-byte file with COUNT 1666...6 asked for 17 GB: out-of-memory
+/// while fuzzing, test/fuzz/corpus/pcd_input/crash_count_overflow_oom). The header is walked
+/// as readHeader walks it: until the first line of no known keyword, DATA included.
+std::uint64_t pcdHeaderAllocation(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary);
+  std::size_t fields = 0;
+  std::vector<std::uint64_t> sizes;
+  std::uint32_t point_step = 0;  // PCL keeps it in a uint32 computed from int offsets
+  std::uint64_t largest = 0;
+  const auto starts = [](const std::string& word, const char* keyword) { return word.rfind(keyword, 0) == 0; };
+  for (std::string line; std::getline(file, line);)
+  {
+    if (line.empty())
+      continue;
+    std::istringstream words(line);
+    words.imbue(std::locale::classic());
+    std::string keyword;
+    words >> keyword;
+    std::size_t values = 0;  // the words after the keyword
+    std::istringstream count_words(line);
+    for (std::string word; count_words >> word;)
+      ++values;
+    values = values > 0 ? values - 1 : 0;
+    if (starts(keyword, "#") || starts(keyword, "VERSION") || starts(keyword, "TYPE") || starts(keyword, "WIDTH") ||
+        starts(keyword, "HEIGHT") || starts(keyword, "VIEWPOINT") || starts(keyword, "DATA"))
+      continue;
+    if (starts(keyword, "FIELDS") || starts(keyword, "COLUMNS"))
+    {
+      fields = values;
+      sizes.assign(fields, 4);
+      point_step = static_cast<std::uint32_t>(4 * fields);
+    }
+    else if (starts(keyword, "SIZE") || starts(keyword, "COUNT"))
+    {
+      if (values != fields)
+        break;  // readHeader fails here
+      // PCL reads the values as ints from one stream (0 after a failed read) and sums them in
+      // int: the low 32 bits of this unsigned (wrapping) sum.
+      std::uint64_t step = 0;
+      for (std::size_t i = 0; i < fields; ++i)
+      {
+        int value = 0;
+        words >> value;
+        if (starts(keyword, "SIZE"))
+          sizes[i] = static_cast<std::uint64_t>(static_cast<std::int64_t>(value));
+        step += starts(keyword, "SIZE") ? sizes[i] : static_cast<std::uint64_t>(static_cast<std::int64_t>(value)) * sizes[i];
+      }
+      point_step = static_cast<std::uint32_t>(step);
+    }
+    else if (starts(keyword, "POINTS"))
+    {
+      std::size_t points = 0;
+      words >> points;
+      largest = std::max<std::uint64_t>(largest, points * point_step);
+    }
+    else
+      break;
+  }
+  return largest;
+}
+
 /// Why PCL's PCD reader must not be given a file whose header PCDReader::readHeader parsed
 /// into `header`, or "" when it may. PCL 1.13 trusts the header: it sizes the data buffer when
 /// it meets POINTS (with the point size known at that line), keeps parsing after DATA until an
@@ -175,6 +241,16 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
   unsigned int data_index = 0;
   // readHeader also throws (std::exception) on some malformed headers instead of failing
   // (std::terminate while fuzzing, test/fuzz/corpus/pcd_input/crash_header_throws).
+  std::error_code size_error;
+  const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
+  // binary_compressed data expands at most ~100x (LZF).
+  const std::uint64_t header_allocation = size_error ? 0 : pcdHeaderAllocation(path);
+  if (header_allocation > 100 * file_bytes + 4096)
+  {
+    error = path + ": its header makes PCL allocate " + std::to_string(header_allocation) +
+            " bytes for a file of " + std::to_string(file_bytes) + " (POINTS x the FIELDS, SIZE and COUNT before it)";
+    return nullptr;
+  }
   try
   {
     if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
