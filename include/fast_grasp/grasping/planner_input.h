@@ -12,19 +12,6 @@
 
 namespace fast_grasp
 {
-/// The typed failure for a view that `planner` cannot plan on, or nullopt when it can.
-/// Checked in this order:
-///  - `params_problem` (the planner's own Params::validate() text) non-empty: InvalidParameters;
-///  - the gripper fails GripperModel::validate(): InvalidParameters;
-///  - a null cloud or no finite point: EmptyInput;
-///  - fewer than max(min_points, 3) finite points: DegenerateInput;
-///  - no sensor origin, or a non-finite one: DegenerateInput (every planner approaches from
-///    the seen side);
-///  - `limits` fail PlannerInputLimits::validate(): InvalidParameters;
-///  - finite points spanning more than limits.max_object_extent_m along an axis:
-///    DegenerateInput (not one graspable object).
-/// Messages start with "<planner>: ". compute_time_s is left to the caller.
-
 /// What every planner accepts as one object view: the top-level keys of
 /// config/grasp_planners.yaml (docs/parameters/grasping.md), the same for all planners.
 struct PlannerInputLimits
@@ -43,6 +30,18 @@ struct PlannerInputLimits
 /// A number in a planner's failure or summary message: 3 significant digits.
 std::string formatNumber(double value);
 
+/// The typed failure for a view that `planner` cannot plan on, or nullopt when it can.
+/// Checked in this order:
+///  - `params_problem` (the planner's own Params::validate() text) non-empty: InvalidParameters;
+///  - `limits` fail PlannerInputLimits::validate(): InvalidParameters;
+///  - the gripper fails GripperModel::validate(): InvalidParameters;
+///  - a null cloud or no finite point: EmptyInput;
+///  - fewer than max(min_points, 3) finite points: DegenerateInput;
+///  - no sensor origin, or a non-finite one: DegenerateInput (every planner approaches from
+///    the seen side);
+///  - finite points spanning more than limits.max_object_extent_m along an axis:
+///    DegenerateInput (not one graspable object).
+/// Messages start with "<planner>: ". compute_time_s is left to the caller.
 std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
                                              const GripperModel& gripper, const ObjectView& view,
                                              std::size_t min_points, const PlannerInputLimits& limits);
