@@ -63,8 +63,9 @@ built="$(date +%s)"
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:allocator_may_return_null=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # Tests that assert a time budget check speed, which an ASan + UBSan build (10-20x slower) does
-# not measure: they run in the normal build only.
-timed_tests="BoundaryGrasp.ReportsComputeTimeAtTenThousandPoints:Lwr4.ShelfPickIsSolved"
+# not measure: they run in the normal build only. The JACO IK round trip counts solutions found
+# within ik_timeout_s (5 ms): 76-77 of 100 under the sanitizers, 100 natively.
+timed_tests="BoundaryGrasp.ReportsComputeTimeAtTenThousandPoints:Lwr4.ShelfPickIsSolved:Jaco.IkRoundTripsThroughTheOffsetWrist"
 for test in test_core test_gripper_volume test_perception test_renderer test_arm_kinematics test_arm_collision \
     test_arm_planning test_arm_robots test_grasp_execution test_principal_axis_grasp test_cshape_grasp \
     test_boundary_grasp test_fused_grasp test_concavity_grasp test_grasp_offline; do

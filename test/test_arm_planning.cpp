@@ -141,6 +141,16 @@ TEST(TrajectoryTiming, CornersStopAndBadInputIsRejected)
                                                    Eigen::VectorXd::Constant(6, 1e308) };
   EXPECT_FALSE(timeParameterize(huge_path, limits, traj, &why));
   EXPECT_TRUE(traj.empty());
+  // max_samples bounds the work: 6 rad at 0.02 rad is 300 steps, 301 samples.
+  std::vector<Eigen::VectorXd> long_move = { Eigen::VectorXd::Zero(6), Eigen::VectorXd::Zero(6) };
+  long_move[1][0] = 6.0;
+  TimingLimits bounded = limits;
+  bounded.max_samples = 301;
+  ASSERT_TRUE(timeParameterize(long_move, bounded, traj, &why)) << why;
+  EXPECT_EQ(traj.size(), 301u);
+  bounded.max_samples = 300;
+  EXPECT_FALSE(timeParameterize(long_move, bounded, traj, &why));
+  EXPECT_NE(why.find("more than max_samples 300"), std::string::npos) << why;
 }
 
 TEST(ArmMotionPlanner, EveryThesisPlannerAllocates)

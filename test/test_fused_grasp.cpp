@@ -260,6 +260,60 @@ TEST(PlannerInput, AnObjectSpanningKilometresIsDegenerateForEveryPlanner)
   }
 }
 
+TEST(PlannerInput, AViewWiderThanMaxObjectExtentIsDegenerateForEveryPlanner)
+{
+  // A box plus one point 1.2 m away: wider than the deployed max_object_extent_m (1 m).
+  ObjectView view = boxView();
+  CloudNormal::Ptr wide(new CloudNormal(*view.cloud));
+  PointNormal p = wide->points.front();
+  p.x += 1.2f;
+  wide->push_back(p);
+  view.cloud = wide;
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspPlannerConfig config;
+  for (const std::string& name : graspAlgorithmNames())
+  {
+    const GraspResult result = makeGraspPlanner(name, config)->plan(view, gripper);
+    EXPECT_EQ(result.failure, GraspFailure::DegenerateInput) << name << ": " << result.message;
+    EXPECT_NE(result.message.find("more than max_object_extent_m 1 m"), std::string::npos) << result.message;
+  }
+  // A larger limit lets the same view through the input check; an unusable one is a parameter error.
+  PlannerInputLimits wider;
+  wider.max_object_extent_m = 2.0;
+  setInputLimits(config, wider);
+  PlannerInputLimits unusable;
+  unusable.max_object_extent_m = 0.0;
+  GraspPlannerConfig bad_config;
+  setInputLimits(bad_config, unusable);
+  for (const std::string& name : graspAlgorithmNames())
+  {
+    const GraspResult result = makeGraspPlanner(name, config)->plan(view, gripper);
+    EXPECT_EQ(result.message.find("max_object_extent_m"), std::string::npos) << name << ": " << result.message;
+    const GraspResult refused = makeGraspPlanner(name, bad_config)->plan(boxView(), gripper);
+    EXPECT_EQ(refused.failure, GraspFailure::InvalidParameters) << name << ": " << refused.message;
+  }
+}
+
+TEST(PlannerInput, MaxObjectExtentIsOneTopLevelKeyForEveryPlanner)
+{
+  const GraspPlannerConfig deployed =
+      loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  for (const double limit : { deployed.principal_axis.input_limits.max_object_extent_m,
+                              deployed.cshape.input_limits.max_object_extent_m,
+                              deployed.boundary.input_limits.max_object_extent_m,
+                              deployed.concavity.input_limits.max_object_extent_m,
+                              deployed.fused.input_limits.max_object_extent_m })
+    EXPECT_EQ(limit, 1.0);
+  YAML::Node root;
+  root["max_object_extent_m"] = 0.5;
+  EXPECT_EQ(plannerInputLimitsFromYaml(root).max_object_extent_m, 0.5);
+  root["max_object_extent_m"] = -1.0;
+  EXPECT_THROW(plannerInputLimitsFromYaml(root), std::runtime_error);
+  root["max_object_extent_m"] = "wide";
+  EXPECT_THROW(plannerInputLimitsFromYaml(root), std::runtime_error);
+  EXPECT_EQ(plannerInputLimitsFromYaml(YAML::Node()).max_object_extent_m, PlannerInputLimits().max_object_extent_m);
+}
+
 TEST(FusedGrasp, BadInputAndBadModelAreTypedFailures)
 {
   const GripperModel gripper = synthetic::robotiqLikeGripper();

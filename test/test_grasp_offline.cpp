@@ -19,6 +19,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <iterator>
@@ -677,6 +678,71 @@ TEST(OfflinePipeline, PcdReaderRefusesWhatTheConversionWouldMisread)
   ASSERT_NE(read, nullptr) << error;
   ASSERT_EQ(read->size(), box.size());
   EXPECT_TRUE(read->points.back().getVector3fMap().isApprox(box.points.back().getVector3fMap()));
+}
+
+TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
+{
+  // PCL sizes its buffer at the POINTS line and keeps parsing after DATA; its ASCII reader then
+  // writes the final layout's points into that buffer. Under valgrind, PCL 1.13 writes past the
+  // 8-byte buffer of this file (2 points x 1 float) 2 points x 8 floats; the fuzzer's version
+  // (crash_fields_after_points) corrupted the heap inside libpcl_io.
+  std::string error;
+  const auto write = [](const std::string& name, const std::string& text) {
+    const std::string path = ::testing::TempDir() + "/" + name + ".pcd";
+    std::ofstream(path) << text;
+    return path;
+  };
+  struct BadHeader
+  {
+    const char* name;
+    std::string text;
+    const char* reason;
+  };
+  const std::vector<BadHeader> bad_headers = {
+    { "count_after_points",
+      "VERSION 0.7\nFIELDS x\nSIZE 4\nTYPE F\nCOUNT 1\nPOINTS 2\nCOUNT 8\nDATA ascii\n1 2 3 4 5 6 7 8\n1 2 3 4 5 6 7 8\n",
+      "POINTS line comes before" },
+    // TYPE F with SIZE 8 makes x a double; a later SIZE 4 packs the points as floats.
+    { "size_after_type",
+      "VERSION 0.7\nFIELDS x y z\nSIZE 8 4 4\nTYPE F F F\nSIZE 4 4 4\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\n"
+      "DATA ascii\n1 2 3\n",
+      "lines disagree (field 'y' at byte 4, the fields before it end at byte 8)" },
+    // 65536 x 65537 wraps to 65536 in PCL's 32-bit check against POINTS (the comment line makes
+    // the file large enough for what readHeader allocates).
+    { "wrapping_size",
+      "# " + std::string(8000, 'c') + "\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+      "WIDTH 65536\nHEIGHT 65537\nPOINTS 65536\nDATA ascii\n1 2 3\n",
+      "WIDTH x HEIGHT is not POINTS" },
+    { "unknown_type", "VERSION 0.7\nFIELDS x y z\nSIZE 2 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
+      "field 'x': its SIZE and TYPE name no known type" },
+    // readHeader itself allocates POINTS x the point size so far, before any check.
+    { "huge_points", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1000000000\nDATA ascii\n1 2 3\n",
+      "allocate 12000000000 bytes" },
+  };
+  for (const BadHeader& bad : bad_headers)
+  {
+    error.clear();
+    EXPECT_EQ(fast_grasp::readPcdCloud(write(bad.name, bad.text), error), nullptr) << bad.name;
+    EXPECT_NE(error.find(bad.reason), std::string::npos) << bad.name << ": " << error;
+  }
+  // The fuzzer's files: fields after POINTS (also an unknown TYPE '!'), and COUNT 1666...6
+  // (17 GB asked inside readHeader); both refused before PCL reads them.
+  for (const char* fuzzed : { "crash_fields_after_points", "crash_count_overflow_oom" })
+  {
+    error.clear();
+    EXPECT_EQ(fast_grasp::readPcdCloud(kSourceDir + "/test/fuzz/corpus/pcd_input/" + fuzzed, error), nullptr);
+    EXPECT_NE(error.find(std::string(fuzzed) + ": "), std::string::npos) << error;
+  }
+  // What PCL writes passes: every encoding, padding fields ('_') and colour included.
+  for (const auto& entry : std::filesystem::directory_iterator(kSourceDir + "/test/fuzz/corpus/pcd_input"))
+  {
+    if (entry.path().filename().string().rfind("seed_", 0) != 0)
+      continue;
+    error.clear();
+    const auto cloud = fast_grasp::readPcdCloud(entry.path().string(), error);
+    ASSERT_NE(cloud, nullptr) << entry.path() << ": " << error;
+    EXPECT_GT(cloud->size(), 0u) << entry.path();
+  }
 }
 
 TEST(GraspOfflineBadInput, WrongTopicAndFrameFail)

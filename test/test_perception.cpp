@@ -308,6 +308,29 @@ TEST(CloudPreprocess, PointsWhoseTransformOverflowsAreDropped)
   EXPECT_TRUE(result.cloud->points[0].getVector3fMap().allFinite());
 }
 
+TEST(CloudPreprocess, PointsTheVoxelGridCannotIndexAreAReasonNotInf)
+{
+  // With reach_m unbounded, points 1e37 m out reach pcl::VoxelGrid, whose int voxel indices
+  // and float voxel sums overflow: a "dense" cloud with inf coordinates came out (fuzzing;
+  // test/fuzz/corpus/cloud_preprocess/crash_voxel_grid_overflow).
+  CloudXYZ raw;
+  raw.push_back(PointXYZ(1e37f, 0.0f, 0.1f));
+  raw.push_back(PointXYZ(-1e37f, 0.0f, 0.1f));
+  raw.push_back(PointXYZ(0.1f, 0.0f, 0.2f));
+  PreprocessParams params;
+  params.reach_m = 1e30;  // "no reach limit"
+  params.leaf_size_m = 0.005;
+  const PreprocessResult result = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.reason.find("cannot voxelise points up to 1e+37 m"), std::string::npos) << result.reason;
+  // The same cloud without the far points voxelises as before.
+  raw.points.erase(raw.points.begin(), raw.points.begin() + 2);
+  raw.width = 1;
+  const PreprocessResult near = preprocessCloud(raw, Eigen::Isometry3f::Identity(), params);
+  ASSERT_TRUE(near.ok) << near.reason;
+  EXPECT_EQ(near.cloud->size(), 1u);
+}
+
 TEST(CloudPreprocess, BadInputGivesReasonNotThrow)
 {
   PreprocessParams params;

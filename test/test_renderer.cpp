@@ -4,7 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
 #include <numeric>
+#include <string>
 
 namespace fast_grasp
 {
@@ -284,6 +290,74 @@ TEST(XtionRenderer, MissingMeshFileIsReportedNotThrown)
   std::string error;
   EXPECT_FALSE(loadMeshFile("/nonexistent/mesh.stl", mesh, error));
   EXPECT_FALSE(error.empty());
+}
+
+/// A fuzz corpus input of the mesh_loader target (one format byte, then the file) written as
+/// the file `name` (its extension picks the reader).
+std::string meshFromCorpus(const std::string& corpus_file, const std::string& name,
+                           const std::function<void(std::string&)>& edit = {})
+{
+  std::ifstream in(std::string(FAST_GRASP_SOURCE_DIR) + "/test/fuzz/corpus/mesh_loader/" + corpus_file,
+                   std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_FALSE(bytes.empty()) << corpus_file;
+  bytes.erase(0, 1);
+  if (edit)
+    edit(bytes);
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+TEST(XtionRenderer, StlFormatIsDecidedBeforeVtkReadsIt)
+{
+  TriangleMesh ascii, binary, mesh;
+  std::string error;
+  ASSERT_TRUE(loadMeshFile(meshFromCorpus("seed_box_ascii.stl", "box_ascii.stl"), ascii, error)) << error;
+  ASSERT_TRUE(loadMeshFile(meshFromCorpus("seed_box_binary.stl", "box_binary.stl"), binary, error)) << error;
+  EXPECT_EQ(ascii.triangles.size(), 12u);
+  EXPECT_EQ(binary.triangles.size(), 12u);
+  // Binary exporters often start the 80-byte header with "solid": the size decides.
+  const std::string solid_header = meshFromCorpus("seed_box_binary.stl", "box_binary_solid_header.stl",
+                                                     [](std::string& b) { b.replace(0, 5, "solid"); });
+  ASSERT_TRUE(loadMeshFile(solid_header, mesh, error)) << error;
+  EXPECT_EQ(mesh.triangles.size(), 12u);
+  // The fuzzer's file: "solid", then binary bytes; VTK read it as binary and allocated 18 GB.
+  error.clear();
+  EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_stl_solid_but_binary", "solid_but_binary.stl"), mesh, error));
+  EXPECT_NE(error.find("starts like an ASCII STL ('solid') but holds binary bytes"), std::string::npos) << error;
+  // A binary STL declaring one triangle more than it holds.
+  const std::string short_binary = meshFromCorpus("seed_box_binary.stl", "box_binary_short.stl", [](std::string& b) {
+    const std::uint32_t triangles = 13;
+    std::memcpy(&b[80], &triangles, sizeof(triangles));
+  });
+  EXPECT_FALSE(loadMeshFile(short_binary, mesh, error));
+  EXPECT_NE(error.find("nor a binary one (684 bytes, not 84 + 50 x the 13 triangles"), std::string::npos) << error;
+}
+
+TEST(XtionRenderer, ObjFaceIndicesAreCheckedBeforeVtkReadsThem)
+{
+  // VTK 9.1's OBJ reader dereferences a null texture-coordinate array for "v/vt" without any
+  // "vt" line (the fuzzer's file: "f 1 2 4/ 3"); with the texture coordinates it reads.
+  TriangleMesh mesh;
+  std::string error;
+  const auto write = [](const std::string& name, const std::string& text) {
+    const std::string path = ::testing::TempDir() + "/" + name + ".obj";
+    std::ofstream(path) << text;
+    return path;
+  };
+  const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
+  EXPECT_FALSE(loadMeshFile(write("texture_without_vt", vertices + "f 1 2/1 3\n"), mesh, error));
+  EXPECT_NE(error.find("face vertex '2/1' names texture coordinate 1 of 0"), std::string::npos) << error;
+  EXPECT_FALSE(loadMeshFile(write("empty_texture", vertices + "f 1 2/ 3\n"), mesh, error));
+  EXPECT_NE(error.find("is not v, v/vt, v/vt/vn or v//vn"), std::string::npos) << error;
+  EXPECT_FALSE(loadMeshFile(write("vertex_out_of_range", vertices + "f 1 2 4\n"), mesh, error));
+  EXPECT_NE(error.find("names vertex 4 of 3"), std::string::npos) << error;
+  ASSERT_TRUE(loadMeshFile(write("with_texture", vertices + "vt 0 0\nvt 1 0\nf 1/1 2/2 3/1\n"), mesh, error)) << error;
+  EXPECT_EQ(mesh.triangles.size(), 1u);
+  error.clear();
+  EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_obj_texture_index_without_vt", "fuzzed.obj"), mesh, error));
+  EXPECT_NE(error.find("face vertex '4/'"), std::string::npos) << error;
 }
 
 }  // namespace fast_grasp

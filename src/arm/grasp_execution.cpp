@@ -131,6 +131,7 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
     readScalar(root, "horizontal_tolerance_rad", p.motion.horizontal_tolerance_rad);
     readScalar(root, "trajectory_step_rad", p.timing.max_step_rad);
     readScalar(root, "corner_angle_rad", p.timing.corner_angle_rad);
+    readScalar(root, "max_trajectory_samples", p.timing.max_samples);
   }
   catch (const YAML::Exception& e)
   {
@@ -152,6 +153,8 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
     throw std::runtime_error("arm config '" + arm_yaml + "': 'max_approach_tilt_deg' must be in [0, 90]");
   if (p.max_approach_tilt_deg > 0.0)
     positive(p.approach_tilt_step_deg, "approach_tilt_step_deg");
+  if (p.timing.max_samples < 2)
+    throw std::runtime_error("arm config '" + arm_yaml + "': 'max_trajectory_samples' must be >= 2");
   if (!(p.table_band_m >= 0.0))
     throw std::runtime_error("arm config '" + arm_yaml + "': 'table_band_m' must be >= 0");
   if ((p.acceleration_limit_rad_s2.array() <= 0.0).any() || (p.velocity_limit_rad_s.array() <= 0.0).any())

@@ -65,10 +65,10 @@ bool timeParameterize(const std::vector<Eigen::VectorXd>& waypoints, const Timin
   }
   // The step count below is an int and the grid is allocated: a segment whose length overflows
   // (waypoints near 1e308) or a max_step_rad tiny against the path made that cast undefined
-  // behaviour (UBSan, fuzzing) or an unbounded allocation. A real arm path has thousands of steps.
-  constexpr double kMaxGridPoints = 1e6;
-  if (!std::isfinite(grid_points) || grid_points > kMaxGridPoints)
-    return fail(why, "path too long for max_step_rad: more than 1e6 grid points (or a non-finite segment length)");
+  // behaviour (UBSan, fuzzing) or an unbounded allocation.
+  if (!std::isfinite(grid_points) || grid_points > static_cast<double>(limits.max_samples))
+    return fail(why, "path too long for max_step_rad: more than max_samples " + std::to_string(limits.max_samples) +
+                         " samples (or a non-finite segment length)");
   for (std::size_t k = 0; k < segments; ++k)
   {
     // At least two intervals per segment, so that a segment between two corners has an

@@ -470,7 +470,7 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
     return result;
   };
   const BoundaryParams& p = params_;
-  if (std::optional<GraspResult> bad_input = checkPlannerInput("boundary", p.validate(), gripper, view, p.min_points))
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("boundary", p.validate(), gripper, view, p.min_points, p.input_limits))
     return finish(*bad_input);
 
   // Ch4.3.1 A-B: main plane (major and middle axis), normal toward the sensor.

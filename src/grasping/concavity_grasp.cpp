@@ -596,7 +596,7 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
   };
   const ConcavityParams& p = params_;
   if (std::optional<GraspResult> bad_input =
-          checkPlannerInput("concavity", p.validate(), gripper, view, std::max<std::size_t>(p.min_points, 4)))
+          checkPlannerInput("concavity", p.validate(), gripper, view, std::max<std::size_t>(p.min_points, 4), p.input_limits))
     return finish(*bad_input);
 
   CloudXYZ::Ptr finite(new CloudXYZ);

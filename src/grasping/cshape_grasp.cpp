@@ -926,7 +926,7 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
   };
 
   // Validate before touching anything (the sensor origins give the normals' side and the unseen part).
-  if (std::optional<GraspResult> bad_input = checkPlannerInput("cshape", params_.validate(), gripper, view, params_.min_points))
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("cshape", params_.validate(), gripper, view, params_.min_points, params_.input_limits))
     return finish(*bad_input);
 
   SearchContext ctx(params_, gripper);

@@ -181,7 +181,7 @@ FusedGraspPlanner::FusedGraspPlanner(std::vector<std::unique_ptr<GraspPlanner>> 
 GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperModel& gripper) const
 {
   const Stopwatch watch;
-  if (auto bad = checkPlannerInput(name(), params_.validate(), gripper, full_view, 10))
+  if (auto bad = checkPlannerInput(name(), params_.validate(), gripper, full_view, 10, params_.input_limits))
   {
     bad->compute_time_s = watch.elapsedSeconds();
     return *bad;

@@ -344,6 +344,24 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root)
+{
+  PlannerInputLimits limits;
+  // The other top-level keys are the planner sections and the nodelets' own settings.
+  SectionReader reader(root, "(top level)");
+  reader.readPositive("max_object_extent_m", limits.max_object_extent_m);
+  return limits;
+}
+
+void setInputLimits(GraspPlannerConfig& config, const PlannerInputLimits& limits)
+{
+  config.principal_axis.input_limits = limits;
+  config.cshape.input_limits = limits;
+  config.boundary.input_limits = limits;
+  config.concavity.input_limits = limits;
+  config.fused.input_limits = limits;
+}
+
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
 {
   YAML::Node root;
@@ -367,6 +385,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.boundary = boundaryParamsFromYaml(root["boundary"]);
       config.concavity = concavityParamsFromYaml(root["concavity"]);
       config.fused = fusedParamsFromYaml(root["fused"]);
+      setInputLimits(config, plannerInputLimitsFromYaml(root));
     }
   }
   catch (const std::runtime_error& e)

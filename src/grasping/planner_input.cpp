@@ -15,13 +15,23 @@ std::string formatNumber(double value)
   return out.str();
 }
 
+std::string PlannerInputLimits::validate() const
+{
+  if (!(max_object_extent_m > 0.0) || !std::isfinite(max_object_extent_m))
+    return "max_object_extent_m must be positive and finite (is " + formatNumber(max_object_extent_m) + ")";
+  return "";
+}
+
 std::optional<GraspResult> checkPlannerInput(const std::string& planner, const std::string& params_problem,
                                              const GripperModel& gripper, const ObjectView& view,
-                                             std::size_t min_points)
+                                             std::size_t min_points, const PlannerInputLimits& limits)
 {
   const std::string prefix = planner + ": ";
   if (!params_problem.empty())
     return GraspResult::fail(GraspFailure::InvalidParameters, prefix + params_problem);
+  const std::string limits_problem = limits.validate();
+  if (!limits_problem.empty())
+    return GraspResult::fail(GraspFailure::InvalidParameters, prefix + limits_problem);
   const std::string gripper_problem = gripper.validate();
   if (!gripper_problem.empty())
     return GraspResult::fail(GraspFailure::InvalidParameters, prefix + "gripper: " + gripper_problem);
@@ -49,11 +59,11 @@ std::optional<GraspResult> checkPlannerInput(const std::string& planner, const s
     return GraspResult::fail(GraspFailure::DegenerateInput,
                              prefix + "no sensor origin, or one is not finite: the approach must come from the seen side");
   const double extent = static_cast<double>((hi - lo).maxCoeff());
-  if (extent > kMaxObjectExtentM)
+  if (extent > limits.max_object_extent_m)
     return GraspResult::fail(GraspFailure::DegenerateInput,
-                             prefix + "the points span " + std::to_string(extent) + " m (more than " +
-                                 std::to_string(static_cast<int>(kMaxObjectExtentM)) +
-                                 " m): not one object, or not in metres");
+                             prefix + "the points span " + formatNumber(extent) + " m (more than max_object_extent_m " +
+                                 formatNumber(limits.max_object_extent_m) +
+                                 " m): not one graspable object, or not in metres");
   return std::nullopt;
 }
 

@@ -531,7 +531,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     return result;
   };
   const PrincipalAxisParams& p = params_;
-  if (std::optional<GraspResult> bad_input = checkPlannerInput("principal_axis", p.validate(), gripper, view, p.min_points))
+  if (std::optional<GraspResult> bad_input = checkPlannerInput("principal_axis", p.validate(), gripper, view, p.min_points, p.input_limits))
     return finish(*bad_input);
 
   // Step 1: finite points and PCA (Eqs. 3.1-3.2).

@@ -14,7 +14,9 @@ protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
     // ~boundary/* (config/grasp_planners.yaml); throws naming a bad key or value.
-    return std::make_unique<BoundaryGraspPlanner>(boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary")));
+    BoundaryParams params = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
+    params.input_limits = inputLimits(private_nh);
+    return std::make_unique<BoundaryGraspPlanner>(params);
   }
 };
 

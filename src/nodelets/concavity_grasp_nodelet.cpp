@@ -14,7 +14,9 @@ protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
     // ~concavity/* (config/grasp_planners.yaml); throws naming a bad key or value.
-    return std::make_unique<ConcavityGraspPlanner>(concavityParamsFromYaml(paramAsYaml(private_nh, "concavity")));
+    ConcavityParams params = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
+    params.input_limits = inputLimits(private_nh);
+    return std::make_unique<ConcavityGraspPlanner>(params);
   }
 };
 

@@ -14,7 +14,9 @@ protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
     // ~cshape/* (config/grasp_planners.yaml); throws naming a bad key or value.
-    return std::make_unique<CShapeGraspPlanner>(cshapeParamsFromYaml(paramAsYaml(private_nh, "cshape")));
+    CShapeParams params = cshapeParamsFromYaml(paramAsYaml(private_nh, "cshape"));
+    params.input_limits = inputLimits(private_nh);
+    return std::make_unique<CShapeGraspPlanner>(params);
   }
 };
 

@@ -22,6 +22,7 @@ protected:
     config.boundary = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
     config.concavity = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
     config.fused = fusedParamsFromYaml(paramAsYaml(private_nh, "fused"));
+    setInputLimits(config, inputLimits(private_nh));
     return makeGraspPlanner("fused", config);
   }
 };

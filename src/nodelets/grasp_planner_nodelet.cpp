@@ -3,10 +3,12 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
+#include "fast_grasp/nodelets/xmlrpc_yaml.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <pcl_conversions/pcl_conversions.h>
@@ -68,6 +70,14 @@ visualization_msgs::Marker boxInGraspFrame(const GraspCandidate& grasp, const Ei
   return m;
 }
 }  // namespace
+
+PlannerInputLimits GraspPlannerNodelet::inputLimits(const ros::NodeHandle& private_nh)
+{
+  YAML::Node top_level(YAML::NodeType::Map);
+  if (private_nh.hasParam("max_object_extent_m"))
+    top_level["max_object_extent_m"] = paramAsYaml(private_nh, "max_object_extent_m");
+  return plannerInputLimitsFromYaml(top_level);
+}
 
 void GraspPlannerNodelet::onInit()
 {

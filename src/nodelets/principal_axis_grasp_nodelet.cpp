@@ -15,8 +15,9 @@ protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
     // ~principal_axis/* (config/grasp_planners.yaml); throws naming a bad key.
-    return std::make_unique<PrincipalAxisGraspPlanner>(
-        principalAxisParamsFromYaml(paramAsYaml(private_nh, "principal_axis")));
+    PrincipalAxisParams params = principalAxisParamsFromYaml(paramAsYaml(private_nh, "principal_axis"));
+    params.input_limits = inputLimits(private_nh);
+    return std::make_unique<PrincipalAxisGraspPlanner>(params);
   }
 };
 

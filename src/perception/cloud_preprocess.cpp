@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <sstream>
 
 namespace fast_grasp
@@ -114,6 +116,33 @@ std::string validateView(const RawCloudView& view)
   return {};
 }
 
+// pcl::VoxelGrid (uninstrumented) casts coordinate / leaf to int, multiplies the three voxel
+// counts in 64 bits and sums each voxel's points in float: with points near 1e38 m (garbage
+// bytes read as floats, an unbounded reach_m) or a leaf of 1e-38 m the casts and sums overflow
+// and a cloud marked dense came out with inf coordinates (fuzzing,
+// test/fuzz/corpus/cloud_preprocess/crash_voxel_grid_overflow). "" when it is safe.
+std::string voxelGridProblem(const CloudXYZ& points, double leaf_m)
+{
+  Eigen::Array3d lo = Eigen::Array3d::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (const auto& p : points.points)
+  {
+    lo = lo.min(p.getArray3fMap().cast<double>());
+    hi = hi.max(p.getArray3fMap().cast<double>());
+  }
+  const double farthest_m = std::max(lo.abs().maxCoeff(), hi.abs().maxCoeff());
+  const double voxels = (((hi - lo) / leaf_m).floor() + 1.0).prod();
+  constexpr double kIntMax = static_cast<double>(std::numeric_limits<std::int32_t>::max());
+  // 1e30 m keeps the float sum of any voxel's points (< 2^31 of them) finite.
+  if (farthest_m / leaf_m >= kIntMax || farthest_m > 1e30 || voxels > kIntMax)
+  {
+    std::ostringstream why;
+    why << "leaf_size_m " << leaf_m << " cannot voxelise points up to " << farthest_m
+        << " m from the origin: more voxels or a larger voxel index than pcl::VoxelGrid's int holds";
+    return why.str();
+  }
+  return {};
+}
+
 // One pass over the organised cloud: every finite pixel (every pixel_stride-th row and column)
 // is transformed once and kept if it is within reach. Doing the reach test after the transform
 // (rather than a crop in the camera frame) keeps the filter exact for 12 flops per point.
@@ -202,6 +231,8 @@ PreprocessResult preprocessImpl(const Source& raw, std::uint64_t stamp, const Ei
   const Stopwatch voxel_watch;
   if (params.leaf_size_m > 0.0)
   {
+    if (const std::string bad = voxelGridProblem(*in_reach, params.leaf_size_m); !bad.empty())
+      return fail(bad);
     output = std::make_shared<CloudXYZ>();
     pcl::VoxelGrid<PointXYZ> voxel_grid;
     voxel_grid.setInputCloud(in_reach);

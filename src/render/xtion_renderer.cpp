@@ -9,11 +9,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <limits>
 #include <numeric>
 #include <random>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -168,6 +172,110 @@ TriangleMesh makeExtrusion(const std::vector<Eigen::Vector2d>& polygon_xy_m, dou
   return mesh;
 }
 
+namespace
+{
+/// Why VTK's STL reader (behind pcl::io::loadPolygonFile) must not be given the STL file at
+/// `path`, or "" when it may. VTK 9.1 picks ASCII or binary by the share of non-text bytes in
+/// the first 256 (kwsys DetectFileType, >= 5 % is binary) and its binary reader allocates the
+/// triangle count of bytes 80-83 before reading: a fuzzed file starting with "solid" but holding
+/// binary bytes asked for 18 GB (test/fuzz/corpus/mesh_loader/crash_stl_solid_but_binary). The
+/// format is decided here: binary exactly when the file is 84 + 50 bytes per declared triangle,
+/// otherwise ASCII ("solid ..."), and VTK must see the same.
+std::string stlFileProblem(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  if (!file)
+    return "cannot open it";
+  const std::uint64_t bytes = static_cast<std::uint64_t>(file.tellg());
+  std::string head(static_cast<std::size_t>(std::min<std::uint64_t>(bytes, 256)), '\0');
+  file.seekg(0);
+  if (head.empty() || !file.read(&head[0], static_cast<std::streamsize>(head.size())))
+    return "empty or unreadable file";
+  const std::size_t probe = head.size();
+  std::size_t non_text = 0;
+  for (std::size_t i = 0; i < probe; ++i)
+  {
+    const auto c = static_cast<unsigned char>(head[i]);
+    non_text += (c >= 0x20 && c <= 0x7F) || c == '\n' || c == '\r' || c == '\t' ? 0 : 1;
+  }
+  const bool vtk_reads_binary = static_cast<double>(non_text) >= 0.05 * static_cast<double>(probe);
+  std::uint32_t triangles = 0;
+  if (bytes >= 84)
+    std::memcpy(&triangles, head.data() + 80, sizeof(triangles));
+  const bool binary = bytes >= 84 && 84 + 50 * static_cast<std::uint64_t>(triangles) == bytes;
+  if (binary && !vtk_reads_binary)
+    return "binary STL (84 + 50 x " + std::to_string(triangles) +
+           " bytes) whose first 256 bytes look like text: VTK would read it as ASCII";
+  if (binary)
+    return "";
+  const std::size_t first = head.find_first_not_of(" \t\r\n");
+  const bool ascii = first != std::string::npos && head.compare(first, 5, "solid") == 0;
+  if (ascii && vtk_reads_binary)
+    return "starts like an ASCII STL ('solid') but holds binary bytes, and is not a binary STL either (" +
+           std::to_string(bytes) + " bytes, not 84 + 50 x the " + std::to_string(triangles) +
+           " triangles bytes 80-83 declare)";
+  if (!ascii)
+    return "neither an ASCII STL ('solid ...') nor a binary one (" + std::to_string(bytes) +
+           " bytes, not 84 + 50 x the " + std::to_string(triangles) + " triangles bytes 80-83 declare)";
+  return "";
+}
+
+/// Why VTK's OBJ reader must not be given the OBJ file at `path`, or "" when it may. VTK 9.1's
+/// vtkOBJReader dereferences a null texture-coordinate array when a face vertex names a texture
+/// coordinate ("4/1", or the empty "4/") and the file has no "vt" line (a SEGV while fuzzing,
+/// test/fuzz/corpus/mesh_loader/crash_obj_texture_index_without_vt). Every face vertex must be
+/// v, v/vt, v/vt/vn or v//vn with each index (1-based, or negative from the end) naming an
+/// existing v, vt or vn line.
+std::string objFileProblem(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary);
+  if (!file)
+    return "cannot open it";
+  std::vector<std::string> lines;
+  long counts[3] = { 0, 0, 0 };  // v, vt, vn
+  for (std::string line; std::getline(file, line);)
+  {
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    counts[0] += keyword == "v";
+    counts[1] += keyword == "vt";
+    counts[2] += keyword == "vn";
+    if (keyword == "f")
+      lines.push_back(line);
+  }
+  static const char* const kNames[3] = { "vertex", "texture coordinate", "normal" };
+  for (const std::string& line : lines)
+  {
+    std::istringstream words(line);
+    std::string vertex;
+    words >> vertex;  // "f"
+    while (words >> vertex)
+    {
+      std::vector<std::string> parts(1);
+      for (const char c : vertex)
+        if (c == '/')
+          parts.emplace_back();
+        else
+          parts.back().push_back(c);
+      if (parts.size() > 3 || (parts.size() == 2 && parts[1].empty()) || (parts.size() == 3 && parts[2].empty()))
+        return "face vertex '" + vertex + "' is not v, v/vt, v/vt/vn or v//vn";
+      for (std::size_t k = 0; k < parts.size(); ++k)
+      {
+        if (k == 1 && parts[k].empty())
+          continue;  // v//vn
+        char* end = nullptr;
+        const long index = std::strtol(parts[k].c_str(), &end, 10);
+        if (parts[k].empty() || *end != '\0' || index == 0 || std::labs(index) > counts[k])
+          return "face vertex '" + vertex + "' names " + kNames[k] + " " + parts[k] + " of " +
+                 std::to_string(counts[k]);
+      }
+    }
+  }
+  return "";
+}
+}  // namespace
+
 bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& error)
 {
   pcl::PolygonMesh polygon_mesh;
@@ -176,24 +284,14 @@ bool loadMeshFile(const std::string& path, TriangleMesh& mesh, std::string& erro
   // and PCL's PLY reader is the one OSS-Fuzz covers. STL and OBJ stay with loadPolygonFile.
   const bool ply = path.size() >= 4 && path.compare(path.size() - 4, 4, ".ply") == 0;
   const bool stl = path.size() >= 4 && path.compare(path.size() - 4, 4, ".stl") == 0;
-  // VTK allocates the triangle count a binary STL header declares before reading: a 150-byte
-  // file asked for 6 GB (out-of-memory while fuzzing). Binary STL is 84 + 50 bytes per triangle.
-  if (stl)
+  const bool obj = path.size() >= 4 && path.compare(path.size() - 4, 4, ".obj") == 0;
+  if (stl || obj)
   {
-    std::ifstream file(path, std::ios::binary | std::ios::ate);
-    const std::streamoff bytes = file ? static_cast<std::streamoff>(file.tellg()) : 0;
-    char head[84] = {};
-    file.seekg(0);
-    if (bytes >= 84 && file.read(head, sizeof(head)) && std::string(head, 5) != "solid")
+    const std::string problem = stl ? stlFileProblem(path) : objFileProblem(path);
+    if (!problem.empty())
     {
-      std::uint32_t triangles = 0;
-      std::memcpy(&triangles, head + 80, sizeof(triangles));
-      if (84 + 50 * static_cast<std::uint64_t>(triangles) > static_cast<std::uint64_t>(bytes))
-      {
-        error = "mesh '" + path + "': binary STL declares " + std::to_string(triangles) +
-                " triangles, more than the file holds";
-        return false;
-      }
+      error = "mesh '" + path + "': " + problem;
+      return false;
     }
   }
   if ((ply ? pcl::io::loadPLYFile(path, polygon_mesh) : pcl::io::loadPolygonFile(path, polygon_mesh)) < 0 ||

@@ -1,6 +1,7 @@
 #include "offline_pipeline.h"
 
 #include <pcl/PCLPointCloud2.h>
+#include <pcl/common/io.h>
 #include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 
@@ -10,8 +11,10 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <locale>
 #include <numeric>
 #include <sstream>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -58,6 +61,137 @@ void setSensorPose(CloudXYZ& cloud, const Eigen::Vector3f& origin)
   cloud.sensor_orientation_ = look.norm() > 1e-6f ? Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), look)
                                                   : Eigen::Quaternionf::Identity();
 }
+/// The largest buffer PCDReader::readHeader (PCL 1.13) allocates while parsing the header of
+/// `path`: it resizes the data at every POINTS line to POINTS x the point size of the lines read
+/// so far, before any check (a 255-byte file with COUNT 1666...6 asked for 17 GB: out-of-memory
+/// while fuzzing, test/fuzz/corpus/pcd_input/crash_count_overflow_oom). The header is walked
+/// as readHeader walks it: until the first line of no known keyword, DATA included.
+std::uint64_t pcdHeaderAllocation(const std::string& path)
+{
+  std::ifstream file(path, std::ios::binary);
+  std::size_t fields = 0;
+  std::vector<std::uint64_t> sizes;
+  std::uint32_t point_step = 0;  // PCL keeps it in a uint32 computed from int offsets
+  std::uint64_t largest = 0;
+  const auto starts = [](const std::string& word, const char* keyword) { return word.rfind(keyword, 0) == 0; };
+  for (std::string line; std::getline(file, line);)
+  {
+    if (line.empty())
+      continue;
+    std::istringstream words(line);
+    words.imbue(std::locale::classic());
+    std::string keyword;
+    words >> keyword;
+    std::size_t values = 0;  // the words after the keyword
+    std::istringstream count_words(line);
+    for (std::string word; count_words >> word;)
+      ++values;
+    values = values > 0 ? values - 1 : 0;
+    if (starts(keyword, "#") || starts(keyword, "VERSION") || starts(keyword, "TYPE") || starts(keyword, "WIDTH") ||
+        starts(keyword, "HEIGHT") || starts(keyword, "VIEWPOINT") || starts(keyword, "DATA"))
+      continue;
+    if (starts(keyword, "FIELDS") || starts(keyword, "COLUMNS"))
+    {
+      fields = values;
+      sizes.assign(fields, 4);
+      point_step = static_cast<std::uint32_t>(4 * fields);
+    }
+    else if (starts(keyword, "SIZE") || starts(keyword, "COUNT"))
+    {
+      if (values != fields)
+        break;  // readHeader fails here
+      // PCL reads the values as ints from one stream (0 after a failed read) and sums them in
+      // int: the low 32 bits of this unsigned (wrapping) sum.
+      std::uint64_t step = 0;
+      for (std::size_t i = 0; i < fields; ++i)
+      {
+        int value = 0;
+        words >> value;
+        if (starts(keyword, "SIZE"))
+          sizes[i] = static_cast<std::uint64_t>(static_cast<std::int64_t>(value));
+        step += starts(keyword, "SIZE") ? sizes[i] : static_cast<std::uint64_t>(static_cast<std::int64_t>(value)) * sizes[i];
+      }
+      point_step = static_cast<std::uint32_t>(step);
+    }
+    else if (starts(keyword, "POINTS"))
+    {
+      std::size_t points = 0;
+      words >> points;
+      largest = std::max<std::uint64_t>(largest, points * point_step);
+    }
+    else
+      break;
+  }
+  return largest;
+}
+
+/// Why PCL's PCD reader must not be given a file whose header PCDReader::readHeader parsed
+/// into `header`, or "" when it may. PCL 1.13 trusts the header: it sizes the data buffer when
+/// it meets POINTS (with the point size known at that line), keeps parsing after DATA until an
+/// unknown line, and its body readers then write WIDTH x HEIGHT points of the final layout into
+/// that buffer, each value with the size of its TYPE. A header that declares fields after POINTS
+/// (test/fuzz/corpus/pcd_input/crash_fields_after_points: a heap overflow inside the
+/// uninstrumented libpcl_io that ASan only noticed later in its quarantine), a SIZE line after
+/// TYPE, or a WIDTH x HEIGHT that wraps in 32 bits makes that buffer too small.
+std::string pcdHeaderProblem(const std::string& path, const pcl::PCLPointCloud2& header, int data_type,
+                             unsigned int data_index)
+{
+  if (header.fields.empty())
+    return "declares no fields";
+  const std::uint64_t points = static_cast<std::uint64_t>(header.width) * header.height;
+  if (points == 0)
+    return "holds no points";
+  // The layout SIZE, TYPE and COUNT declare, packed in FIELDS order (what PCDWriter writes,
+  // padding included as '_' fields), must be the one PCL derived.
+  std::uint64_t packed = 0;
+  for (const auto& f : header.fields)
+  {
+    const std::uint64_t value_bytes = pcl::getFieldSize(f.datatype);
+    if (value_bytes == 0)
+      return "field '" + f.name + "': its SIZE and TYPE name no known type";
+    if (f.offset != packed)
+      return "its FIELDS, SIZE, TYPE and COUNT lines disagree (field '" + f.name + "' at byte " +
+             std::to_string(f.offset) + ", the fields before it end at byte " + std::to_string(packed) + ")";
+    packed += value_bytes * f.count;
+  }
+  if (packed != header.point_step)
+    return "its FIELDS, SIZE, TYPE and COUNT lines disagree (" + std::to_string(packed) + " bytes of fields, " +
+           std::to_string(header.point_step) + "-byte points)";
+  if (header.data.size() != points * header.point_step)
+    return "its POINTS line comes before the lines that define a point, or WIDTH x HEIGHT is not POINTS (" +
+           std::to_string(header.data.size()) + " data bytes allocated, " + std::to_string(points) + " points of " +
+           std::to_string(header.point_step) + " bytes need " + std::to_string(points * header.point_step) + ")";
+  // PCDReader allocates what the header declares before it reads the data: a 200-byte file
+  // declaring a billion points asked for 4 GB (out-of-memory while fuzzing). The declared
+  // points must fit the file: 2 bytes each in ascii ("0\n"), point_step in binary, and
+  // binary_compressed holds its compressed and uncompressed sizes, then the compressed block.
+  std::error_code size_error;
+  const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
+  if (size_error)
+    return "cannot tell its size (" + size_error.message() + ")";
+  const std::uint64_t data_bytes = points * header.point_step;
+  const std::string declares = "declares " + std::to_string(points) + " points, more than its " +
+                               std::to_string(file_bytes) + " bytes hold";
+  if (data_type == 0 && 2 * points > file_bytes)
+    return declares;
+  if (data_type == 1 && data_index + data_bytes > file_bytes)
+    return declares;
+  if (data_type == 2)
+  {
+    std::uint32_t block_sizes[2] = { 0, 0 };  // compressed, uncompressed
+    std::ifstream file(path, std::ios::binary);
+    file.seekg(data_index);
+    file.read(reinterpret_cast<char*>(block_sizes), sizeof(block_sizes));
+    // LZF expands at most ~100x; PCL allocates the block's own uncompressed size.
+    if (!file || data_index + 8 + static_cast<std::uint64_t>(block_sizes[0]) > file_bytes ||
+        data_bytes > 100 * static_cast<std::uint64_t>(block_sizes[0]))
+      return declares;
+    if (block_sizes[1] != data_bytes)
+      return "its compressed block holds " + std::to_string(block_sizes[1]) + " bytes, " + std::to_string(points) +
+             " points of " + std::to_string(header.point_step) + " bytes need " + std::to_string(data_bytes);
+  }
+  return "";
+}
 }  // namespace
 
 const char* toString(ViewStage stage)
@@ -96,7 +230,8 @@ SensorCloud sensorCloudFromBagFrame(const BagFrame& frame)
 CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
 {
   // PCL 1.13's PCDReader::read dereferences past a header it failed to parse (segfault on an
-  // empty or non-PCD file), so the header is read and checked on its own first.
+  // empty or non-PCD file) and trusts the header it parsed, so the header is read and checked
+  // on its own first (pcdHeaderProblem); PCL then parses the file.
   pcl::PCDReader reader;
   pcl::PCLPointCloud2 blob;
   Eigen::Vector4f origin;
@@ -106,6 +241,16 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
   unsigned int data_index = 0;
   // readHeader also throws (std::exception) on some malformed headers instead of failing
   // (std::terminate while fuzzing, test/fuzz/corpus/pcd_input/crash_header_throws).
+  std::error_code size_error;
+  const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
+  // binary_compressed data expands at most ~100x (LZF).
+  const std::uint64_t header_allocation = size_error ? 0 : pcdHeaderAllocation(path);
+  if (header_allocation > 100 * file_bytes + 4096)
+  {
+    error = path + ": its header makes PCL allocate " + std::to_string(header_allocation) +
+            " bytes for a file of " + std::to_string(file_bytes) + " (POINTS x the FIELDS, SIZE and COUNT before it)";
+    return nullptr;
+  }
   try
   {
     if (reader.readHeader(path, blob, origin, orientation, version, data_type, data_index) < 0)
@@ -113,33 +258,10 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
       error = "not a PCD file (unreadable header): " + path;
       return nullptr;
     }
-    if (blob.fields.empty())
+    const std::string problem = pcdHeaderProblem(path, blob, data_type, data_index);
+    if (!problem.empty())
     {
-      error = path + " declares no fields";
-      return nullptr;
-    }
-    // PCDReader allocates what the header declares before it reads the data: a 200-byte file
-    // declaring a billion points asked for 4 GB (out-of-memory while fuzzing). The declared
-    // points must fit the file: 2 bytes each in ascii ("0\n"), point_step in binary, and LZF
-    // (binary_compressed) expands at most ~90x.
-    std::error_code size_error;
-    const double file_bytes = static_cast<double>(std::filesystem::file_size(path, size_error));
-    const double points = static_cast<double>(blob.width) * blob.height;
-    const double needed = data_type == 0 ? 2.0 * points : data_type == 1 ? points * blob.point_step + data_index :
-                                                                             points * blob.point_step / 100.0;
-    // binary_compressed: PCL allocates the block's own uncompressed-size field, which must match.
-    std::uint32_t block_sizes[2] = { 0, 0 };  // compressed, uncompressed
-    if (data_type == 2)
-    {
-      std::ifstream file(path, std::ios::binary);
-      file.seekg(data_index);
-      file.read(reinterpret_cast<char*>(block_sizes), sizeof(block_sizes));
-    }
-    if (size_error || needed > file_bytes ||
-        (data_type == 2 && (block_sizes[0] > file_bytes || block_sizes[1] != points * blob.point_step)))
-    {
-      error = path + " declares " + std::to_string(static_cast<std::uint64_t>(points)) +
-              " points, more than its " + std::to_string(static_cast<std::uint64_t>(file_bytes)) + " bytes hold";
+      error = path + ": " + problem;
       return nullptr;
     }
     if (reader.read(path, blob) < 0)
@@ -153,6 +275,14 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
     error = "not a PCD file (" + std::string(e.what()) + "): " + path;
     return nullptr;
   }
+  // The checked header is what PCL parsed again, so the data holds every point; PCD data has
+  // no row padding (readHeader leaves row_step at 0 when WIDTH precedes the fields).
+  if (blob.data.size() != static_cast<std::uint64_t>(blob.width) * blob.height * blob.point_step)
+  {
+    error = path + ": PCL read " + std::to_string(blob.data.size()) + " data bytes, not what its header declares";
+    return nullptr;
+  }
+  blob.row_step = blob.point_step * blob.width;
   for (const char* field : { "x", "y", "z" })
   {
     bool found = false;
@@ -164,28 +294,12 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
       return nullptr;
     }
   }
-  // pcl::fromPCLPointCloud2 trusts the blob: it takes the address of point 0 of an empty cloud
-  // (undefined behaviour, UBSan on a fuzzed file) and copies width * height points of
-  // point_step bytes from wherever the data ends, so the sizes are checked here.
-  const std::uint64_t points = static_cast<std::uint64_t>(blob.width) * blob.height;
-  if (points == 0)
-  {
-    error = path + " holds no points";
-    return nullptr;
-  }
-  if (blob.point_step == 0 || blob.row_step < static_cast<std::uint64_t>(blob.point_step) * blob.width ||
-      blob.data.size() < static_cast<std::uint64_t>(blob.row_step) * blob.height)
-  {
-    error = path + ": " + std::to_string(blob.data.size()) + " data bytes do not hold " + std::to_string(points) +
-            " points of " + std::to_string(blob.point_step) + " bytes";
-    return nullptr;
-  }
   for (const auto& f : blob.fields)
   {
-    if ((f.name == "x" || f.name == "y" || f.name == "z") &&
-        (f.datatype != pcl::PCLPointField::FLOAT32 || f.offset + sizeof(float) > blob.point_step))
+    // pcl::fromPCLPointCloud2 copies x, y, z of any type as floats.
+    if ((f.name == "x" || f.name == "y" || f.name == "z") && f.datatype != pcl::PCLPointField::FLOAT32)
     {
-      error = path + ": field '" + f.name + "' is not a float inside the point";
+      error = path + ": field '" + f.name + "' is not a float";
       return nullptr;
     }
   }

@@ -28,6 +28,10 @@ struct TimingLimits
   /// Smaller turns (dense Cartesian approach paths) are passed at a speed bounded by the
   /// acceleration the turn needs.
   double corner_angle_rad = 0.1;
+  /// A path needing more samples at max_step_rad is refused (false with a reason): the work is
+  /// linear in the samples, and 1e6 of them (the old fixed bound) took 3-6 s under the
+  /// sanitizers while fuzzing. A real arm path is tens of rad long: ~1000 samples at 0.02 rad.
+  std::size_t max_samples = 20000;
 };
 
 /// Time-optimal parameterisation of the piecewise-linear path through `waypoints` (positions

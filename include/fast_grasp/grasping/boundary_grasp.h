@@ -7,6 +7,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
 #include <Eigen/Core>
@@ -99,6 +100,9 @@ struct BoundaryParams
   }
   UnseenPartParams unseen = defaultUnseenParams();
   GripperFitParams gripper_fit;
+
+  /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
+  PlannerInputLimits input_limits;
 
   /// Empty when usable, else why not.
   std::string validate() const;

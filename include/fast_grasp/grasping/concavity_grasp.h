@@ -64,6 +64,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
 #include <Eigen/Core>
@@ -146,6 +147,9 @@ struct ConcavityParams
   std::size_t max_recorded_candidates = 200;
   /// Final check with the real hand's volume (gripper_volume.h).
   GripperFitParams gripper_fit;
+
+  /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
+  PlannerInputLimits input_limits;
 
   /// Empty when usable, else why not.
   std::string validate() const;

@@ -12,6 +12,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
 #include <Eigen/Core>
@@ -130,6 +131,9 @@ struct CShapeParams
   /// C that envelops the object deeply can put the palm into it. The palm is backed out
   /// when it can be; otherwise the next orientation is tried.
   GripperFitParams gripper_fit;
+
+  /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
+  PlannerInputLimits input_limits;
 
   /// Empty when usable, else why not.
   std::string validate() const;

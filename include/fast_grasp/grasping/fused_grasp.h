@@ -13,6 +13,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/planner_input.h"
 
 #include <memory>
 #include <string>
@@ -49,6 +50,9 @@ struct FusedParams
   /// The hand check of the generated candidates (the planners' own use their sections').
   GripperFitParams gripper_fit;
   GraspSuccessModel model;
+
+  /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
+  PlannerInputLimits input_limits;
 
   std::string validate() const;
 };

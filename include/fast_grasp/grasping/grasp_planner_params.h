@@ -41,6 +41,10 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
 /// grasp_features.h; a missing feature weighs 0). Throws std::runtime_error like the others.
 FusedParams fusedParamsFromYaml(const YAML::Node& section);
 
+/// The top-level `max_object_extent_m` of grasp_planners.yaml (the root map; a missing key keeps
+/// the default). Throws std::runtime_error on a non-positive or unreadable value.
+PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root);
+
 /// Every planner's parameters from one grasp_planners.yaml.
 struct GraspPlannerConfig
 {
@@ -51,9 +55,13 @@ struct GraspPlannerConfig
   FusedParams fused;
 };
 
-/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:` and `concavity:`
-/// sections (any may be absent: defaults). Top-level keys other than those sections are the nodelets' shared
-/// settings and are ignored here. Throws std::runtime_error with the file name on a missing or
+/// Gives every planner of `config` the same input limits.
+void setInputLimits(GraspPlannerConfig& config, const PlannerInputLimits& limits);
+
+/// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:`, `concavity:` and
+/// `fused:` sections (any may be absent: defaults) and the top-level `max_object_extent_m`
+/// (every planner's input_limits). The other top-level keys are the nodelets' shared settings
+/// and are ignored here. Throws std::runtime_error with the file name on a missing or
 /// unparsable file and on any error of the two functions above.
 GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path);
 

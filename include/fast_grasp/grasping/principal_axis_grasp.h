@@ -6,6 +6,7 @@
 
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/core/gripper_model.h"
 
 #include <Eigen/Core>
@@ -64,6 +65,9 @@ struct PrincipalAxisParams
   /// Final check with the real hand's volume (gripper_volume.h): palm backed out of the
   /// object, fingers free, object between them.
   GripperFitParams gripper_fit;
+
+  /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
+  PlannerInputLimits input_limits;
 
   /// Empty when every step, cell and threshold is usable; otherwise what is wrong.
   std::string validate() const;
