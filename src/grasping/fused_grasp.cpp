@@ -191,9 +191,12 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   std::vector<Generated> pool;
   std::ostringstream summary;
   GraspResult result;
+  CloudXYZ unseen;  // the pooled planners' unseen part (Ch. 6), for the deeper copies' hand check
   for (const auto& planner : planners_)
   {
     GraspResult part = planner->plan(view, gripper);
+    if (unseen.empty() && !part.unseen.empty())
+      unseen = part.unseen;
     result.candidates_evaluated += part.candidates_evaluated;
     summary << planner->name() << ": " << part.grasps.size() << "; ";
     if (!part.ok() && !part.message.empty() && result.message.size() < 600)
@@ -212,6 +215,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   {
     GripperVolumeCheck check(gripper, params_.gripper_fit);
     check.addSeen(*view.cloud);
+    check.addUnseen(unseen);  // like the planners' hands, ours stay out of the unseen part
     if (view.has_table_plane)
       check.setTable(view.table_plane);
     if (params_.deepen_pooled_max_m > 0.0)
@@ -221,6 +225,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       deepen.max_table_tilt_rad = 0.0;
       GripperVolumeCheck deeper_check(gripper, deepen);
       deeper_check.addSeen(*view.cloud);
+      // the planners kept their hands out of the unseen part: a deeper hand must too
+      deeper_check.addUnseen(unseen);
       if (view.has_table_plane)
         deeper_check.setTable(view.table_plane);
       const std::size_t planned = pool.size();
