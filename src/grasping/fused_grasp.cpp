@@ -196,7 +196,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   {
     GraspResult part = planner->plan(view, gripper);
     if (unseen.empty() && !part.unseen.empty())
-      unseen = part.unseen;
+      unseen = std::move(part.unseen);
     result.candidates_evaluated += part.candidates_evaluated;
     summary << planner->name() << ": " << part.grasps.size() << "; ";
     if (!part.ok() && !part.message.empty() && result.message.size() < 600)
@@ -213,23 +213,24 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   sideCandidates(view, extent, gripper, params_, generated);
   if (params_.gripper_fit.enabled && (!generated.empty() || params_.deepen_pooled_max_m > 0.0))
   {
-    GripperVolumeCheck check(gripper, params_.gripper_fit);
-    check.addSeen(*view.cloud);
-    check.addUnseen(unseen);  // like the planners' hands, ours stay out of the unseen part
-    if (view.has_table_plane)
-      check.setTable(view.table_plane);
+    // Like the planners' hands, ours stay out of the seen points, the unseen part and the table.
+    const auto hand_check = [&](const GripperFitParams& fit) {
+      GripperVolumeCheck check(gripper, fit);
+      check.addSeen(*view.cloud);
+      check.addUnseen(unseen);
+      if (view.has_table_plane)
+        check.setTable(view.table_plane);
+      return check;
+    };
+    const GripperVolumeCheck check = hand_check(params_.gripper_fit);
     if (params_.deepen_pooled_max_m > 0.0)
     {
       GripperFitParams deepen = params_.gripper_fit;
       deepen.max_advance_m = params_.deepen_pooled_max_m;
       deepen.max_table_tilt_rad = 0.0;
-      GripperVolumeCheck deeper_check(gripper, deepen);
-      deeper_check.addSeen(*view.cloud);
-      // the planners kept their hands out of the unseen part: a deeper hand must too
-      deeper_check.addUnseen(unseen);
-      if (view.has_table_plane)
-        deeper_check.setTable(view.table_plane);
+      const GripperVolumeCheck deeper_check = hand_check(deepen);
       const std::size_t planned = pool.size();
+      pool.reserve(2 * planned + generated.size());  // the copies never move pool[i] under its reference
       std::size_t deepened = 0;
       for (std::size_t i = 0; i < planned; ++i)
       {
