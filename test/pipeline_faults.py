@@ -65,7 +65,7 @@ class PipelineFaultsTest(unittest.TestCase):
         cls.monitor = soak.PipelineMonitor(cls.stages, cls.player)
         cls.stage = {s.name: s for s in cls.stages}
         cls.lock = threading.Lock()
-        cls.diagnostics = []  # (monotonic time, status name)
+        cls.diagnostics = []  # (monotonic time, status name, its "messages processed" or None)
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.on_diagnostics, queue_size=None)
         cls.monitor.wait_connected(timeout_s=120.0)
 
@@ -73,7 +73,23 @@ class PipelineFaultsTest(unittest.TestCase):
     def on_diagnostics(cls, msg):
         now = time.monotonic()
         with cls.lock:
-            cls.diagnostics.extend((now, status.name) for status in msg.status)
+            cls.diagnostics.extend((now, status.name, cls.messages_processed(status)) for status in msg.status)
+
+    @staticmethod
+    def messages_processed(status):
+        for value in status.values:
+            if value.key == "messages processed":
+                try:
+                    return int(value.value)
+                except ValueError:
+                    return None
+        return None
+
+    def planner_diagnostics(self, planner, since):
+        """(time, messages processed) of the planner's /diagnostics received after `since`."""
+        with self.lock:
+            return [(t, processed) for t, name, processed in self.diagnostics
+                    if planner in name and t > since and processed is not None]
 
     # -- helpers ---------------------------------------------------------------------------
     def play_until(self, condition, what, timeout_s=RECOVERY_TIMEOUT_S, rate_hz=RATE_HZ):
@@ -170,17 +186,29 @@ class PipelineFaultsTest(unittest.TestCase):
     def test_04_planner_loader_killed(self):
         # The grasp planner's `nodelet load` process dies: the manager unloads the nodelet when
         # the bond times out, the respawned loader loads it again (until then its load attempts
-        # fail: the name is taken); the other planners never stop.
+        # fail: the name is taken); the other planners never stop. The unload and the reload can
+        # be a tenth of a second apart (a respawned loader is waiting), too short to see in the
+        # manager's list: a new nodelet instance also shows as its "messages processed" count
+        # starting again from zero in /diagnostics.
         loader = "/grasp_planner"
         pid = soak.manager_pid(loader)
         self.assertIsNotNone(pid, "no pid for %s" % loader)
         self.assertIn(loader, self.loaded_planners())
+        before = time.monotonic()
+        self.play_until(lambda: self.planner_diagnostics("grasp_planner", before),
+                        "diagnostics from the grasp planner before the kill", rate_hz=10.0)
+        processed_before = self.planner_diagnostics("grasp_planner", before)[-1][1]
         os.kill(pid, signal.SIGKILL)
         killed_at = time.monotonic()
         with self.monitor.lock:
             others_before = len(self.stage["cshape_planner"].statuses)
-        self.play_until(lambda: loader not in self.loaded_planners(), "%s unloaded by its manager" % loader,
-                        rate_hz=10.0)
+
+        def new_instance():
+            return any(processed < processed_before
+                       for _, processed in self.planner_diagnostics("grasp_planner", killed_at))
+
+        self.play_until(lambda: loader not in self.loaded_planners() or new_instance(),
+                        "%s unloaded by its manager" % loader, rate_hz=10.0)
         unloaded_at = time.monotonic()
         self.play_until(lambda: loader in self.loaded_planners(), "%s loaded again" % loader, rate_hz=10.0)
         reloaded_at = time.monotonic()
@@ -188,10 +216,12 @@ class PipelineFaultsTest(unittest.TestCase):
         self.play_until(lambda: self.outputs_since("grasp_planner", first_after) and
                         self.outputs_since("arm_planner", first_after),
                         "grasps and a trajectory after the grasp planner was reloaded")
+        self.play_until(new_instance, "diagnostics of a new grasp planner instance (its count restarted)",
+                        rate_hz=10.0)
         with self.monitor.lock:
             self.assertGreater(len(self.stage["cshape_planner"].statuses), others_before)
-        rospy.loginfo("grasp planner loader killed: unloaded after %.1f s, loaded again after %.1f s, grasps and a "
-                      "trajectory after %.1f s", unloaded_at - killed_at, reloaded_at - killed_at,
+        rospy.loginfo("grasp planner loader killed: unloaded (seen) after %.1f s, loaded again (seen) after %.1f s, "
+                      "grasps and a trajectory after %.1f s", unloaded_at - killed_at, reloaded_at - killed_at,
                       time.monotonic() - killed_at)
 
     @staticmethod
@@ -230,8 +260,10 @@ class PipelineFaultsTest(unittest.TestCase):
         self.play_until(lambda: self.all_planners_answered_since(first_after) and
                         self.outputs_since("arm_planner", first_after),
                         "grasps from every planner and a trajectory after the respawn")
-        with self.lock:
-            silent_until = min([t for t, name in self.diagnostics if "grasp_planner" in name and t > killed_at])
+        # The respawned planners' diagnostics come on a 1 s timer: wait for the first one.
+        self.play_until(lambda: self.planner_diagnostics("grasp_planner", killed_at),
+                        "diagnostics from the reloaded grasp planner", rate_hz=10.0)
+        silent_until = min(t for t, _ in self.planner_diagnostics("grasp_planner", killed_at))
         rospy.loginfo("planner diagnostics silent for %.1f s after the kill; every planner and the arm back %.1f s "
                       "after it", silent_until - killed_at, time.monotonic() - killed_at)
         self.assertGreater(silent_until - killed_at, 1.0, "the planner's diagnostics never went silent")
