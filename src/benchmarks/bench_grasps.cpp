@@ -24,6 +24,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,7 @@ struct Options
   std::string params_file = std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml";
   int repeats = 21;
   std::size_t scaled_points = 10000;
+  std::vector<std::string> planners;  // empty = every algorithm
 };
 
 double median(std::vector<double> values)
@@ -111,8 +113,9 @@ std::string metrics(const GraspResult& result)
 }  // namespace
 
 const char* const kUsage =
-    "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]\n"
-    "  every grasp planner on every bundled bag's frames: median ms per planner (prints, does not assert)\n";
+    "usage: bench_grasps [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE] [--planners a,b]\n"
+    "  every grasp planner (or those named) on every bundled bag's frames: median ms per planner\n"
+    "  (prints, does not assert)\n";
 
 int main(int argc, char** argv)
 {
@@ -131,6 +134,13 @@ int main(int argc, char** argv)
       options.gripper_file = argv[i + 1];
     else if (flag == "--params")
       options.params_file = argv[i + 1];
+    else if (flag == "--planners")
+    {
+      std::stringstream names(argv[i + 1]);
+      for (std::string name; std::getline(names, name, ',');)
+        if (!name.empty())
+          options.planners.push_back(name);
+    }
     else
       fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
   }
@@ -147,8 +157,17 @@ int main(int argc, char** argv)
     return 1;
   }
   std::vector<std::pair<std::string, std::unique_ptr<GraspPlanner>>> planners;
-  for (const std::string& name : graspAlgorithmNames())
-    planners.emplace_back(name, makeGraspPlanner(name, config));
+  const std::vector<std::string> names = options.planners.empty() ? graspAlgorithmNames() : options.planners;
+  for (const std::string& name : names)
+  {
+    auto planner = makeGraspPlanner(name, config);
+    if (!planner)
+    {
+      std::cerr << "bench_grasps: --planners: no algorithm '" << name << "'\n";
+      return 1;
+    }
+    planners.emplace_back(name, std::move(planner));
+  }
 
   std::vector<fs::path> bags;
   std::error_code error;
