@@ -12,6 +12,7 @@
 //
 // Usage: bench_grasp_motions [--runs 10] [--planners SBL,BiTRRT,...] [--bags mug,hammer,...]
 //                            [--out FILE.csv]
+#include "command_line.h"
 #include "offline_arm_scene.h"
 
 #include "fast_grasp/arm/arm_motion_planner.h"
@@ -68,17 +69,6 @@ struct Call
   double trajectory_s = std::numeric_limits<double>::quiet_NaN();  // time_from_start of the last point
   std::string status;
 };
-
-std::vector<std::string> splitList(const std::string& text)
-{
-  std::vector<std::string> items;
-  std::stringstream stream(text);
-  std::string item;
-  while (std::getline(stream, item, ','))
-    if (!item.empty())
-      items.push_back(item);
-  return items;
-}
 
 double median(std::vector<double> values)
 {
@@ -307,9 +297,9 @@ Options parseOptions(int argc, char** argv)
         usageError("--runs needs a positive integer, not '" + text + "'");
     }
     else if (flag == "--planners")
-      options.planners = splitList(value());
+      options.planners = fast_grasp::splitCommaList(value());
     else if (flag == "--bags")
-      options.bags = splitList(value());
+      options.bags = fast_grasp::splitCommaList(value());
     else if (flag == "--robot")
       options.robot = value();
     else if (flag == "--out")

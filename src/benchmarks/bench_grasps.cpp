@@ -24,7 +24,6 @@
 #include <map>
 #include <memory>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -135,12 +134,7 @@ int main(int argc, char** argv)
     else if (flag == "--params")
       options.params_file = argv[i + 1];
     else if (flag == "--planners")
-    {
-      std::stringstream names(argv[i + 1]);
-      for (std::string name; std::getline(names, name, ',');)
-        if (!name.empty())
-          options.planners.push_back(name);
-    }
+      options.planners = fast_grasp::splitCommaList(argv[i + 1]);
     else
       fast_grasp::exitWithUsage("unknown flag " + flag, kUsage);
   }

@@ -49,17 +49,6 @@ namespace
 namespace fs = std::filesystem;
 using fast_grasp::ArmMotionPlanner;
 
-std::vector<std::string> splitList(const std::string& s)
-{
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty())
-      out.push_back(item);
-  return out;
-}
-
 struct Stats
 {
   double mean = 0.0, sd = 0.0, median = 0.0;
@@ -177,12 +166,12 @@ int main(int argc, char** argv)
       fast_grasp::exitWithUsage("flag " + flag + " needs a value", kUsage);
     const std::string value = argv[++i];
     if (flag == "--runs") runs = std::max(1, std::atoi(value.c_str()));
-    else if (flag == "--planners") planners = splitList(value);
-    else if (flag == "--scenes") scenes = splitList(value);
+    else if (flag == "--planners") planners = fast_grasp::splitCommaList(value);
+    else if (flag == "--scenes") scenes = fast_grasp::splitCommaList(value);
     else if (flag == "--limits")
     {
       limits.clear();
-      for (const std::string& l : splitList(value))
+      for (const std::string& l : fast_grasp::splitCommaList(value))
         limits.push_back(std::atof(l.c_str()));
     }
     else if (flag == "--out") out_dir = value;
