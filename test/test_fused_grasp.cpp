@@ -164,6 +164,34 @@ TEST(FusedGrasp, PoolsTheThesisPlannersWithTheirOwnParameters)
   EXPECT_GE(sources.size(), 2u) << result.message;
 }
 
+// fused/pooled_max_grasps stops a pooled planner early inside the pool only: the same config's
+// standalone C-shape planner still returns its own max_grasps.
+TEST(FusedGrasp, PooledMaxGraspsCapsThePlannerOnlyInsideThePool)
+{
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspPlannerConfig config;
+  config.fused.planners = { "cshape" };
+  config.fused.top_down_directions = 0;
+  config.fused.side_directions = 0;
+  config.fused.deepen_pooled_max_m = 0.0;
+  config.fused.max_grasps = 200;
+  config.fused.pooled_max_grasps = { { "cshape", 2 } };
+  const GraspResult alone = makeGraspPlanner("cshape", config)->plan(view, gripper);
+  ASSERT_TRUE(alone.ok()) << alone.message;
+  ASSERT_GT(alone.grasps.size(), 2u) << alone.message;
+  const GraspResult pooled = makeGraspPlanner("fused", config)->plan(view, gripper);
+  ASSERT_TRUE(pooled.ok()) << pooled.message;
+  EXPECT_EQ(pooled.grasps.size(), 2u) << pooled.message;
+
+  const FusedParams p = fusedParamsFromYaml(YAML::Load("{pooled_max_grasps: {cshape: 5}}"));
+  EXPECT_EQ(p.pooled_max_grasps.at("cshape"), 5u);
+  for (const char* bad : { "{pooled_max_grasps: {fused: 5}}", "{planners: [boundary], pooled_max_grasps: {cshape: 5}}",
+                           "{pooled_max_grasps: {cshape: 0}}", "{pooled_max_grasps: {cshape: 2.5}}",
+                           "{pooled_max_grasps: [5]}" })
+    EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
+}
+
 namespace
 {
 /// A pooled planner that always proposes one fixed grasp, named like a thesis planner.

@@ -318,6 +318,16 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);
   reader.readCount("max_grasps", p.max_grasps, 1);
   reader.readNonNegative("min_success_probability", p.min_success_probability);
+  std::map<std::string, double> pooled_max_grasps;
+  reader.read("pooled_max_grasps", pooled_max_grasps);
+  for (const auto& [name, count] : pooled_max_grasps)
+  {
+    if (std::find(p.planners.begin(), p.planners.end(), name) == p.planners.end())
+      throw std::runtime_error("fused/pooled_max_grasps: '" + name + "' is not one of fused/planners");
+    if (!(count >= 1.0 && count <= 1000.0) || count != std::floor(count))
+      throw std::runtime_error("fused/pooled_max_grasps/" + name + " must be a whole number in [1, 1000]");
+    p.pooled_max_grasps[name] = static_cast<std::size_t>(count);
+  }
   p.gripper_fit = gripperFitFromYaml(reader, "fused");
   SectionReader model(reader.child("model"), "fused/model");
   model.read("bias", p.model.bias);
@@ -413,10 +423,24 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     return std::make_unique<ConcavityGraspPlanner>(config.concavity);
   if (algorithm == "fused")
   {
+    // Each pooled planner with its own section, but its max_grasps from fused/pooled_max_grasps
+    // where that names it.
+    GraspPlannerConfig pooled_config = config;
+    for (const auto& [name, count] : config.fused.pooled_max_grasps)
+    {
+      if (name == "principal_axis")
+        pooled_config.principal_axis.max_grasps = count;
+      else if (name == "cshape")
+        pooled_config.cshape.max_grasps = static_cast<int>(count);
+      else if (name == "boundary")
+        pooled_config.boundary.max_grasps = count;
+      else if (name == "concavity")
+        pooled_config.concavity.max_grasps = count;
+    }
     std::vector<std::unique_ptr<GraspPlanner>> pooled;
     for (const std::string& name : config.fused.planners)
       if (name != "fused")  // fusedParamsFromYaml rejects it; never recurse
-        if (auto planner = makeGraspPlanner(name, config))
+        if (auto planner = makeGraspPlanner(name, pooled_config))
           pooled.push_back(std::move(planner));
     return std::make_unique<FusedGraspPlanner>(std::move(pooled), config.fused);
   }

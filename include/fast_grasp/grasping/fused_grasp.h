@@ -15,6 +15,7 @@
 #include "fast_grasp/grasping/gripper_volume.h"
 #include "fast_grasp/grasping/planner_input.h"
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,6 +45,12 @@ struct FusedParams
   /// of a round object lying down, and in physics a hand whose fingertips end above the
   /// equator lets it slip out on the lift. Both poses are pooled; the model ranks them.
   double deepen_pooled_max_m = 0.0;
+  /// Inside the pool, these planners stop after this many grasps instead of their own
+  /// max_grasps (planner name -> count; the planners' sections stay as they are for standalone
+  /// use). The C-shape planner's search ends after max_grasps grasps pass, and it is most of
+  /// the fused planner's time: 5 instead of 10 cut 24.5 -> 19.6 ms at 10k points with the same
+  /// physics outcome in all 99 training trials.
+  std::map<std::string, std::size_t> pooled_max_grasps;
   /// Grasps returned (best first) and the success probability a grasp needs to be returned.
   std::size_t max_grasps = 10;
   double min_success_probability = 0.0;
