@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -468,6 +469,57 @@ TEST(CShapeGrasp, LowBarIsGraspedWithTheFingertipsAboveTheTable)
   EXPECT_LT(std::abs(best.binormal().x()), 0.2) << best.binormal().transpose();
   EXPECT_NEAR(best.width_m, 0.03, 0.004);
   EXPECT_LT(best.approach().z(), -0.7) << best.approach().transpose();
+}
+
+TEST(CShapeGrasp, MaxAdvancePushesTheFingertipsPastASpheresCentre)
+{
+  // A ball of radius 2 cm on the table, seen from 45 degrees above. The C is placed where its
+  // fingers meet the seen surface, which from this camera is the upper half: the Robotiq's
+  // fingertips (finger_depth / 2 = 2 cm ahead of the closing line) stop above the centre and
+  // the ball squeezes out upward on the lift (physics evaluator, sphere_d30/d40). With
+  // gripper_fit.max_advance_m the real hand goes deeper (5 mm steps) while its boxes clear the
+  // ball (palm 11 mm off), the unseen part and the table (6 mm).
+  const GripperModel gripper = loadGripper("robotiq_2f85");
+  const double radius = 0.02;
+  const Eigen::Vector3d centre(0.0, 0.0, radius);
+  const Eigen::Vector3d viewpoint = centre + 0.6 * Eigen::Vector3d(std::sqrt(0.5), 0.0, std::sqrt(0.5));
+  const ObjectView view = viewOnTable(makeSphere(centre, radius), viewpoint);
+  CShapeParams params = exhaustiveParams();
+  params.table_clearance_m = 0.006;
+  params.gripper_fit.table_clearance_m = 0.006;
+  // How far past the centre, along the approach, the fingertips of each grasp end.
+  const auto tipsPastCentre = [&](const GraspResult& result) {
+    std::vector<double> past;
+    for (const GraspCandidate& g : result.grasps)
+      past.push_back((g.position() + 0.5 * gripper.finger_depth_m * g.approach() - centre).dot(g.approach()));
+    return past;
+  };
+
+  const GraspResult at_contacts = CShapeGraspPlanner(params).plan(view, gripper);
+  ASSERT_TRUE(at_contacts.ok()) << at_contacts.message;
+  const std::vector<double> before = tipsPastCentre(at_contacts);
+  for (double b : before)
+    EXPECT_LT(b, -0.005) << "the scene no longer shows the shallow grasps";
+
+  params.gripper_fit.max_advance_m = 0.04;
+  const GraspResult deeper = CShapeGraspPlanner(params).plan(view, gripper);
+  ASSERT_TRUE(deeper.ok()) << deeper.message;
+  ASSERT_EQ(deeper.grasps.size(), at_contacts.grasps.size());  // same normals, same orientations
+  const std::vector<double> after = tipsPastCentre(deeper);
+  for (std::size_t i = 0; i < deeper.grasps.size(); ++i)
+  {
+    const GraspCandidate& g = deeper.grasps[i];
+    SCOPED_TRACE("grasp " + std::to_string(i) + ", approach z " + std::to_string(g.approach().z()));
+    // On the same approach, >= 1 cm deeper, the fingertips within 4 mm of the centre or past it
+    // (where the ball is 98 % of its widest). Tilted approaches stop short of more: the
+    // Robotiq's 9 cm palm edge then meets table_clearance_m first.
+    EXPECT_LT((g.approach() - at_contacts.grasps[i].approach()).norm(), 1e-9);
+    EXPECT_GE(after[i], before[i] + 0.01);
+    EXPECT_GT(after[i], -0.004);
+    EXPECT_GT(pointsBetweenFingers(g, gripper, *view.cloud), 0u);
+    const Eigen::Vector3d tip_centre = g.position() + 0.5 * gripper.finger_depth_m * g.approach();
+    EXPECT_GE(tip_centre.z(), params.gripper_fit.table_clearance_m);
+  }
 }
 
 TEST(CShapeGrasp, TallBoxWiderThanTheOpeningIsTakenByItsTopEdge)

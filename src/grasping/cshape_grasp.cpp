@@ -833,7 +833,13 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
         ++ctx.rejected.hand;
         continue;
       }
-      grasp.pose = fitted.pose;
+      // Beyond the thesis (gripper_fit.max_advance_m): the C's fingertips on a round object
+      // close above its equator and slip out on the lift, so the real hand is pushed deeper,
+      // as deep as its own boxes clear the object, the unseen part and the table. The C body
+      // is not checked there: it reaches r2 ahead of its centre, the real fingers only
+      // finger_depth / 2.
+      const GripperFit deeper = ctx.hand->fitDeepest(grasp.pose, grasp.width_m);
+      grasp.pose = deeper.ok ? deeper.pose : fitted.pose;
     }
     best.passed = true;
     best.grasp = grasp;
