@@ -39,6 +39,19 @@ TEST(GripperModel, MissingKeyAndFileAreClearErrors)
   }
 }
 
+TEST(GripperModel, DimensionsAboveAMetreAreRejected)
+{
+  // Found by fuzzing the C-shape planner (corpus/object_view/crash_cshape_r2_15_km): with
+  // cshape_r2_m = 15728 m one plan() ran for seconds under the sanitizers.
+  GripperModel g = loadGripperModel(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grippers/robotiq_2f85.yaml");
+  ASSERT_TRUE(g.validate().empty());
+  g.cshape_r2_m = 15728.64;
+  EXPECT_NE(g.validate().find("cshape_r2_m must be a positive number of metres up to 1"), std::string::npos)
+      << g.validate();
+  g.cshape_r2_m = 1.0;  // a metre is still a (large) hand
+  EXPECT_TRUE(g.validate().empty()) << g.validate();
+}
+
 TEST(GraspTypes, PoseIsRightHandedAndExposesGpdVectors)
 {
   GraspCandidate g;

@@ -268,6 +268,48 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
   EXPECT_LE(palm, 0.05 + 0.005 + 0.005 + 1e-3);
 }
 
+TEST(FusedGrasp, GraspsPlannedOnAThinnedViewAreCheckedAgainstTheFullViewsUnseenPart)
+{
+  // The box seen densely (1 mm: ~7000 points). Its unseen back lies behind it along the camera
+  // rays: behind the +x face (x = 2 cm) the shadow of the top back edge drops ~43 deg, so at
+  // x = 4.5 cm it covers everything below z ~ 5.6 cm. A top-down grasp closing along x at
+  // z = 6 cm puts its +x finger (x 4.25-5.45 cm, z 4-8 cm) into that shadow; one closing along
+  // y keeps both fingers beside the box, clear of it.
+  const ObjectView view = boxView(0.001);
+  ASSERT_GT(view.cloud->size(), 5000u);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspCandidate into_back;
+  into_back.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.06), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  into_back.width_m = 0.04;
+  GraspCandidate beside = into_back;
+  beside.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.06), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, 1, 0));
+  beside.width_m = 0.06;
+
+  const auto plan = [&](const GraspCandidate& proposed, std::size_t max_pooled_points) {
+    FusedParams p = onlyGenerated();
+    p.top_down_directions = 0;
+    p.side_directions = 0;
+    p.deepen_pooled_max_m = 0.0;
+    p.max_pooled_points = max_pooled_points;
+    std::vector<std::unique_ptr<GraspPlanner>> planners;
+    planners.push_back(std::make_unique<FixedGraspPlanner>(proposed));
+    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+  };
+  // Not thinned: the pool trusts what its planners checked on the same points.
+  const GraspResult full = plan(into_back, 0);
+  ASSERT_TRUE(full.ok()) << full.message;
+  EXPECT_EQ(full.grasps.size(), 1u);
+  // Thinned to 500 points: the grasp is checked once more with every point and the full view's
+  // unseen part, and dropped.
+  const GraspResult thinned = plan(into_back, 500);
+  EXPECT_FALSE(thinned.ok());
+  EXPECT_NE(thinned.message.find("dropped at full resolution: 1"), std::string::npos) << thinned.message;
+  const GraspResult kept = plan(beside, 500);
+  ASSERT_TRUE(kept.ok()) << kept.message;
+  ASSERT_EQ(kept.grasps.size(), 1u);
+  EXPECT_LT((kept.grasps.front().position() - beside.position()).norm(), 0.011);  // at most a back-off
+}
+
 TEST(PlannerInput, AnObjectSpanningKilometresIsDegenerateForEveryPlanner)
 {
   // Found by the random views below: principal_axis sized its sweep by the extent and threw

@@ -11,9 +11,12 @@ namespace fast_grasp
 std::string GripperModel::validate() const
 {
   std::ostringstream why;
+  // No hand is larger than a metre; a fuzzed C-shape radius of 15 km made the C-shape
+  // planner's shallow-placement search step through 15 km in 5 mm steps (docs/tests.md).
+  constexpr double kLargestDimensionM = 1.0;
   auto positive = [&](const char* key, double value) {
-    if (!(std::isfinite(value) && value > 0.0))
-      why << key << " must be a positive number of metres (got " << value << "); ";
+    if (!(std::isfinite(value) && value > 0.0 && value <= kLargestDimensionM))
+      why << key << " must be a positive number of metres up to " << kLargestDimensionM << " (got " << value << "); ";
   };
   positive("max_opening_m", max_opening_m);
   positive("finger_width_m", finger_width_m);
