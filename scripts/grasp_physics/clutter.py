@@ -20,7 +20,8 @@ from .trial import TABLE_CENTRE_XY_M, TABLE_HALF_SIZE_M, TrialParams, _f, _smoot
 CLUTTER_CENTRE_XY_M = (0.5, 0.0)
 HAND_ROLES = ("palm", "finger_a", "finger_b")
 # objects farther than this from the clutter centre after settling are off the work area
-WORKSPACE_RADIUS_M = 0.2
+# (a packed row of five objects reaches 0.25 m; the camera at 0.55 m sees about +-0.3 m)
+WORKSPACE_RADIUS_M = 0.3
 
 
 def fits_gripper(obj, gripper, margin_m=0.005):
@@ -302,51 +303,65 @@ def make_packed(objs, gripper, rng, params=None):
 
 
 def make_piled(objs, gripper, rng, params=None, drop_height_m=0.03, radius_m=0.04,
-               centre_xy=CLUTTER_CENTRE_XY_M):
+               centre_xy=CLUTTER_CENTRE_XY_M, tries=4):
     """Drops the objects one by one in seeded orientations at a seeded point within radius_m of
     the centre, each with its lowest point drop_height_m above the pile's highest point, and
-    lets each come to rest before the next (the last settle is the scene's)."""
+    lets each come to rest before the next. A drop after which an object has rolled out of the
+    work area (a sphere off the pile, a bottle rolling away) is undone and tried again with the
+    next seeded pose, up to `tries` times; an object that never stays is left out (it waits
+    off the table, and make_table drops it)."""
     scene = ClutterScene(objs, gripper, params)
-    # objects not yet dropped wait far off the table, apart, on their own
-    waiting = [(np.array([-1.0 - 0.5 * k, 2.0, 1.0]), np.array([1.0, 0, 0, 0])) for k in range(len(objs))]
-    settled = []
+    # objects not yet dropped wait far off the table, apart, frozen
+    poses = [(np.array([-1.0 - 0.5 * k, 2.0, 1.0]), np.array([1.0, 0, 0, 0])) for k in range(len(objs))]
+    dropped = []
     for k, obj in enumerate(objs):
-        quat = random_quat(rng)
-        r, a = radius_m * math.sqrt(rng.random()), rng.uniform(-math.pi, math.pi)
-        xy = np.asarray(centre_xy) + r * np.array([math.cos(a), math.sin(a)])
-        top = max([scene.world_vertices(j, settled[j])[:, 2].max() for j in range(k)] or [0.0])
-        lowest = rotated(obj.visual.vertices, quat)[:, 2].min()
-        poses = settled + [(np.array([xy[0], xy[1], top + drop_height_m - lowest]), quat)] + waiting[k + 1:]
-        scene.set_poses(poses)
-        # waiting objects are frozen where they are: only the dropped ones move
-        settled = _settle_first(scene, k + 1, poses)
-    return scene, settled
+        before = list(poses)
+        for _ in range(tries):
+            quat = random_quat(rng)
+            r, a = radius_m * math.sqrt(rng.random()), rng.uniform(-math.pi, math.pi)
+            xy = np.asarray(centre_xy) + r * np.array([math.cos(a), math.sin(a)])
+            top = max([scene.world_vertices(j, before[j])[:, 2].max() for j in dropped] or [0.0])
+            lowest = rotated(obj.visual.vertices, quat)[:, 2].min()
+            poses = list(before)
+            poses[k] = (np.array([xy[0], xy[1], top + drop_height_m - lowest]), quat)
+            scene.set_poses(poses)
+            poses = _settle_some(scene, dropped + [k], poses)
+            if len(on_table(scene, [poses[j] for j in dropped + [k]], sub=[*dropped, k])) == len(dropped) + 1:
+                dropped.append(k)
+                break
+        else:
+            poses = before
+    scene.set_poses(poses)
+    return scene, poses
 
 
-def _settle_first(scene, n, poses):
-    """Settles objects 0..n-1 while the rest stay at their given (waiting) poses."""
+def _settle_some(scene, moving, poses):
+    """Settles the objects `moving` while the others stay frozen at their given poses."""
     m, d = scene.model, scene.data
+    frozen = [k for k in range(len(scene.objs)) if k not in moving]
     steps = int(scene.params.settle_s / m.opt.timestep)
     for i in range(steps):
-        for k in range(n, len(scene.objs)):
+        for k in frozen:
             a, v = scene.qadr[k], scene.vadr[k]
             d.qpos[a:a + 3], d.qpos[a + 3:a + 7] = poses[k]
             d.qvel[v:v + 6] = 0.0
         mujoco.mj_step(m, d)
         if i * m.opt.timestep > 0.3 and max(np.abs(d.qvel[scene.vadr[k]:scene.vadr[k] + 6]).max()
-                                            for k in range(n)) < 2e-3:
+                                            for k in moving) < 2e-3:
             break
-    return scene.poses()[:n]
+    return scene.poses()
 
 
-def on_table(scene, poses, workspace_radius_m=WORKSPACE_RADIUS_M, centre_xy=CLUTTER_CENTRE_XY_M):
-    """Indices of the objects still in the workspace: above the table top and within
-    workspace_radius_m of the clutter's centre (VGN's protocol also drops what rolled away)."""
+def on_table(scene, poses, workspace_radius_m=None, centre_xy=CLUTTER_CENTRE_XY_M, sub=None):
+    """Indices (into poses) of the objects still in the work area: above the table top and
+    within workspace_radius_m of the clutter's centre (VGN's protocol also drops what rolled
+    away). sub: the scene's object index of each pose (default 0, 1, ...)."""
+    radius = WORKSPACE_RADIUS_M if workspace_radius_m is None else workspace_radius_m
     keep = []
-    for k, pose in enumerate(poses):
-        v = scene.world_vertices(k, pose)
-        if v[:, 2].min() > -0.01 and np.linalg.norm(pose[0][:2] - np.asarray(centre_xy)) < workspace_radius_m:
-            keep.append(k)
+    for i, pose in enumerate(poses):
+        v = scene.world_vertices(sub[i] if sub else i, pose)
+        if v[:, 2].min() > -0.01 and np.linalg.norm(pose[0][:2] - np.asarray(centre_xy)) < radius:
+            keep.append(i)
     return keep
 
 
