@@ -43,7 +43,7 @@ sys.path.insert(0, HERE)
 import evaluate_grasps_physics as single  # noqa: E402  (camera, planning and report helpers)
 
 FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "status",
-          "message", "planning_ms", "success", "grasped_object", "closed_on", "failure_phase", "unexpected_contact",
+          "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object", "closed_on", "failure_phase", "unexpected_contact",
           "contact_phase", "table_contact", "lifted_together", "unstable", "rolled_away", "grasp_x", "grasp_y",
           "grasp_z", "approach_x", "approach_y", "approach_z", "width_m", "score", "source"]
 TABLE_FIELDS = ["planner", "gripper", "arrangement", "table", "seed", "objects", "objects_placed", "attempts",
@@ -67,6 +67,8 @@ def parse_args(argv):
     p.add_argument("--friction", type=float, default=0.8)
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--params", default="", help="planner parameters YAML for grasp_offline")
+    p.add_argument("--split-touching-objects", action="store_true",
+                   help="passed to grasp_offline: cut clusters at concave creases (perception split_concave_creases)")
     p.add_argument("--jobs", type=int, default=1)
     p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/clutter"))
     p.add_argument("--cache-dir", default=os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
@@ -130,6 +132,29 @@ def write_clutter_scene(folder, scene, poses, names, eye, target, seed):
     return os.path.join(folder, "scene.yaml")
 
 
+def objects_in_cluster(cluster_pcd, scene, poses, names, near_m=0.006, share=0.05):
+    """Which objects the pipeline's target cluster covers: those owning at least `share` of its
+    points (a point belongs to the object whose surface is nearest, within near_m). One name is
+    the right cluster; several are the merged blob of issue 11."""
+    if not os.path.exists(cluster_pcd):
+        return []
+    import trimesh
+    from scipy.spatial import cKDTree
+    xyz = single.read_pcd_xyz(cluster_pcd)
+    xyz = xyz[np.isfinite(xyz).all(axis=1)]
+    if len(xyz) == 0:
+        return []
+    distances = []
+    for k, pose in enumerate(poses):
+        mesh = scene.objs[k].visual.copy()
+        mesh.vertices = single.trial_lib.rotated(mesh.vertices, pose[1]) + pose[0]
+        surface = trimesh.sample.sample_surface(mesh, 4000, seed=k)[0]  # seeded: same seed, same report
+        distances.append(cKDTree(surface).query(xyz)[0])
+    distances = np.stack(distances, axis=1)
+    owner = np.where(distances.min(axis=1) < near_m, distances.argmin(axis=1), -1)
+    return [names[k] for k in range(len(poses)) if (owner == k).mean() >= share]
+
+
 # ---- one table: clear it -----------------------------------------------------------------------
 def clear_table(job):
     args, planner, arrangement, index, candidates = job
@@ -164,11 +189,15 @@ def clear_table(job):
                                0.5 * max(tops)])
             eye, target = single.camera_for(centre, rng)
             scene_yaml = write_clutter_scene(folder, scene, poses, names, eye, target, seed % 100000 + attempt)
-            report = single.plan(grasp_offline, scene_yaml, planner, single.gripper_path(args.gripper), args)
+            cluster_pcd = os.path.join(folder, "cluster_%d.pcd" % attempt)
+            report = single.plan(grasp_offline, scene_yaml, planner, single.gripper_path(args.gripper), args,
+                                 cluster_pcd)
             grasps = single.grasps_from_report(report)
+            in_cluster = objects_in_cluster(cluster_pcd, scene, poses, names)
             row = dict(base, attempt=attempt, objects_left=len(objs), status=report.get("status", "?"),
                        message=report.get("message", "")[:200],
-                       planning_ms=1000 * (report.get("compute_time_s") or 0.0))
+                       planning_ms=1000 * (report.get("compute_time_s") or 0.0),
+                       target_cluster_objects=len(in_cluster), target_cluster_names=" ".join(in_cluster))
             if not grasps:
                 rows.append(row)
                 attempt -= 1  # a planning call without a grasp is not a grasp attempt
@@ -216,7 +245,7 @@ def clear_table(job):
 
 
 # ---- report ------------------------------------------------------------------------------------
-def summarise(tables, planners, arrangements, gripper_name):
+def summarise(tables, rows, planners, arrangements, gripper_name):
     lines, table_md = [], []
     for planner in planners:
         for arrangement in arrangements:
@@ -229,11 +258,15 @@ def summarise(tables, planners, arrangements, gripper_name):
             cleared = sum(x["cleared"] for x in t)
             success_pct = 100.0 * successes / attempts if attempts else 0.0
             cleared_pct = 100.0 * cleared / placed if placed else 0.0
+            calls = [r for r in rows if r["planner"] == planner and r["arrangement"] == arrangement]
+            single_object = sum(1 for r in calls if r.get("target_cluster_objects") == 1)
+            merged = sum(1 for r in calls if (r.get("target_cluster_objects") or 0) > 1)
             ends = {}
             for x in t:
                 ends[x["end"]] = ends.get(x["end"], 0) + 1
-            table_md.append("| %s | %s | %d | %d | %d | %d | %d | %.0f | %.0f | %s |" % (
+            table_md.append("| %s | %s | %d | %d | %d | %d | %d | %.0f | %.0f | %d / %d / %d | %s |" % (
                 planner, arrangement, len(t), placed, attempts, successes, cleared, success_pct, cleared_pct,
+                single_object, merged, len(calls),
                 ", ".join("%s %d" % kv for kv in sorted(ends.items()))))
             lines.append("%s %s clutter-%s: success %.0f %% cleared %.0f %%"
                          % (planner, gripper_name, arrangement, success_pct, cleared_pct))
@@ -266,15 +299,17 @@ def main(argv):
         w = csv.DictWriter(f, fieldnames=TABLE_FIELDS, extrasaction="ignore")
         w.writeheader()
         w.writerows(tables)
-    table_md, lines = summarise(tables, args.planner_list, args.arrangement_list, gripper["name"])
+    table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"])
     out = ["# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
-           "training objects that fit, seed %d, %.0f s" % (single.gripper_lib.finger_reach_note(gripper), args.friction,
+           "training objects that fit, seed %d%s, %.0f s" % (single.gripper_lib.finger_reach_note(gripper), args.friction,
                                                           args.tables, args.min_objects, args.max_objects,
-                                                          len(candidates), args.seed, time.time() - t0),
+                                                          len(candidates), args.seed,
+                                                          ", split touching objects" if args.split_touching_objects
+                                                          else "", time.time() - t0),
            "# " + BASELINE_NOTE,
            "| planner | arrangement | tables | objects placed | attempts | successes | cleared | success % | "
-           "cleared % | tables ended by |",
-           "|---|---|---|---|---|---|---|---|---|---|"] + table_md
+           "cleared % | target cluster one object / several / planning calls | tables ended by |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"] + table_md
     with open(os.path.join(args.out_dir, "summary.txt"), "w") as f:
         f.write("\n".join(out + lines) + "\n")
     print("\n".join(out))
