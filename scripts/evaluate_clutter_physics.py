@@ -43,7 +43,8 @@ sys.path.insert(0, HERE)
 import evaluate_grasps_physics as single  # noqa: E402  (camera, planning and report helpers)
 
 FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "status",
-          "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object", "closed_on", "failure_phase", "unexpected_contact",
+          "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object",
+          "closed_on", "failure_phase", "unexpected_contact",
           "contact_phase", "table_contact", "lifted_together", "unstable", "rolled_away", "grasp_x", "grasp_y",
           "grasp_z", "approach_x", "approach_y", "approach_z", "width_m", "score", "source"]
 TABLE_FIELDS = ["planner", "gripper", "arrangement", "table", "seed", "objects", "objects_placed", "attempts",
@@ -239,7 +240,8 @@ def clear_table(job):
                 scene = clutter.ClutterScene(objs, gripper, params)
                 scene.set_poses(poses)
             rows.append(row)
-    table = dict(base, seed=seed, objects=" ".join(o.name for o in chosen), attempts=attempt, successes=successes, cleared=cleared,
+    table = dict(base, seed=seed, objects=" ".join(o.name for o in chosen), attempts=attempt, successes=successes,
+                 cleared=cleared,
                  rolled_away=rolled_away, end=end)
     return rows, table
 
@@ -300,12 +302,12 @@ def main(argv):
         w.writeheader()
         w.writerows(tables)
     table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"])
-    out = ["# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
-           "training objects that fit, seed %d%s, %.0f s" % (single.gripper_lib.finger_reach_note(gripper), args.friction,
-                                                          args.tables, args.min_objects, args.max_objects,
-                                                          len(candidates), args.seed,
-                                                          ", split touching objects" if args.split_touching_objects
-                                                          else "", time.time() - t0),
+    header = ("# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
+              "training objects that fit, seed %d%s, %.0f s"
+              % (single.gripper_lib.finger_reach_note(gripper), args.friction, args.tables, args.min_objects,
+                 args.max_objects, len(candidates), args.seed,
+                 ", split touching objects" if args.split_touching_objects else "", time.time() - t0))
+    out = [header,
            "# " + BASELINE_NOTE,
            "| planner | arrangement | tables | objects placed | attempts | successes | cleared | success % | "
            "cleared % | target cluster one object / several / planning calls | tables ended by |",

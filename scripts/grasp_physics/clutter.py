@@ -35,7 +35,8 @@ def clutter_xml(objs, gripper, params):
     for k, obj in enumerate(objs):
         a, geoms = object_geoms(obj, params.friction, "obj_%d_" % k, "obj_mesh_%d_" % k)
         assets += a
-        bodies.append('<body name="object_%d" pos="%s">\n      <freejoint name="object_%d_free"/>\n      %s\n    </body>'
+        bodies.append('<body name="object_%d" pos="%s">\n      <freejoint name="object_%d_free"/>\n'
+                      '      %s\n    </body>'
                       % (k, _f(0.5, 0.3 * k, 0.5), k, "\n      ".join(geoms)))
     return """<mujoco model="clutter_trial">
   <compiler angle="radian" inertiafromgeom="true" boundmass="0.001" boundinertia="1e-7"/>
@@ -286,8 +287,8 @@ def packed_poses(objs, rng, gap_m=0.0005, centre_xy=CLUTTER_CENTRE_XY_M):
             distance = np.linalg.norm(placed.points - group_centre, axis=1).max() + \
                 np.linalg.norm(local, axis=1).max() + 0.01
             for step in (0.005, 0.0005):
-                while distance - step > 0 and placed.clear_of(local, local_hull, group_centre + (distance - step) * unit,
-                                                              gap_m):
+                while distance - step > 0 and \
+                        placed.clear_of(local, local_hull, group_centre + (distance - step) * unit, gap_m):
                     distance -= step
             xy = group_centre + distance * unit
         lowest = rotated(obj.visual.vertices, quat)[:, 2].min()
