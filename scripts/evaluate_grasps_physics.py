@@ -149,6 +149,8 @@ def plan(grasp_offline, scene_yaml, algorithm, gripper, args, save_object=None):
         cmd += ["--follow-next-view", str(args.follow_next_view)]
     if save_object:
         cmd += ["--save-object", save_object]
+    if getattr(args, "split_touching_objects", False):  # the clutter evaluator's option
+        cmd += ["--split-touching-objects"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     try:
         report = json.loads(run.stdout)

@@ -49,21 +49,29 @@ def _f(*values):
     return " ".join("%.6g" % v for v in values)
 
 
-def scene_xml(obj, gripper, params):
-    hand, equality, actuators, tendons, excludes = gripper_mjcf.hand_mjcf(gripper, params.friction)
+def object_geoms(obj, friction, geom_prefix="obj_", mesh_prefix="obj_mesh_"):
+    """(mesh assets, geoms) of obj's collision model, geoms named <geom_prefix><i> (the trial
+    tells objects from the hand by the prefix obj_; the clutter scene names each object's
+    geoms obj_<k>_<i>)."""
     assets, geoms = [], []
-    fr = _f(params.friction, 0.005, 0.0001)
+    fr = _f(friction, 0.005, 0.0001)
     for i, item in enumerate(obj.collision):
         kind = item[0]
-        common = 'name="obj_%d" friction="%s" condim="4" density="1000" rgba="0.8 0.3 0.2 1"' % (i, fr)
+        common = 'name="%s%d" friction="%s" condim="4" density="1000" rgba="0.8 0.3 0.2 1"' % (geom_prefix, i, fr)
         if kind == "mesh":
-            assets.append('<mesh name="obj_mesh_%d" file="%s"/>' % (i, item[1]))
-            geoms.append('<geom type="mesh" mesh="obj_mesh_%d" %s/>' % (i, common))
+            assets.append('<mesh name="%s%d" file="%s"/>' % (mesh_prefix, i, item[1]))
+            geoms.append('<geom type="mesh" mesh="%s%d" %s/>' % (mesh_prefix, i, common))
         elif kind == "box_yaw":
             geoms.append('<geom type="box" size="%s" pos="%s" euler="0 0 %s" %s/>'
                          % (_f(*item[1]), _f(*item[2]), _f(item[3]), common))
         else:
             geoms.append('<geom type="%s" size="%s" pos="%s" %s/>' % (kind, _f(*item[1]), _f(*item[2]), common))
+    return assets, geoms
+
+
+def scene_xml(obj, gripper, params):
+    hand, equality, actuators, tendons, excludes = gripper_mjcf.hand_mjcf(gripper, params.friction)
+    assets, geoms = object_geoms(obj, params.friction)
     return """<mujoco model="grasp_trial">
   <compiler angle="radian" inertiafromgeom="true" boundmass="0.001" boundinertia="1e-7"/>
   <option timestep="%s" gravity="0 0 -9.81" cone="elliptic" impratio="10" integrator="implicit"/>

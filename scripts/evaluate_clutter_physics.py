@@ -1,0 +1,323 @@
+#!/usr/bin/env python3
+"""Clearing a cluttered table: the clutter-removal protocol of VGN/GIGA in MuJoCo (issue 11 part 4).
+
+Per table: 3-6 objects of the training half of config/evaluation/objects.yaml (those that fit
+the gripper standing upright), *packed* (upright, side by side, touching) or *piled* (dropped
+onto each other and settled), seeded (scripts/grasp_physics/clutter.py). Then, until the table
+is empty, no grasp is found or two grasps in a row fail: render the remaining objects with the
+package's Xtion renderer from an eye-in-hand camera like the single-object evaluator's
+(0.55-0.75 m, 30-60 deg down, seeded azimuth, looking at the remaining objects' centre); plan
+with `grasp_offline --scene`; execute the top grasp in MuJoCo with every remaining object
+present (approach, close, lift 15 cm, shake, hold: scripts/grasp_physics/trial.py); a grasp
+succeeds when an object is lifted and held at the end, and that object is removed; the rest
+settle (objects that rolled out of the work area are dropped, not counted as cleared) and the
+loop renders again.
+
+Baseline measured: the pipeline today keeps ONE target cluster (config/perception.yaml
+target_cluster: center_of_view) and plans for it; touching objects come out as one cluster.
+Per-object perception and planning over the whole table (issue 11 parts 2-3) are not here.
+
+    source scripts/env.sh; set +u; source "${FAST_GRASP_WS}/devel/setup.bash"; set -u
+    FAST_GRASP_YCB_DIR="$(bash scripts/fetch_ycb.sh)" .ws/venv/bin/python scripts/evaluate_clutter_physics.py \
+        --planners fused --gripper robotiq_2f85 --tables 4 --out-dir bench_out/clutter
+
+Success % = successful grasps / attempts; cleared % = objects removed by a grasp / objects
+placed. Every attempt goes to <out-dir>/attempts.csv, one row per table to tables.csv, the
+summary to summary.txt; its last lines, per planner:
+`<planner> <gripper> clutter-packed: success P % cleared R %` and the same for clutter-piled.
+Same seed, same numbers.
+"""
+import argparse
+import csv
+import multiprocessing
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+import evaluate_grasps_physics as single  # noqa: E402  (camera, planning and report helpers)
+
+FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "status",
+          "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object",
+          "closed_on", "failure_phase", "unexpected_contact",
+          "contact_phase", "table_contact", "lifted_together", "unstable", "rolled_away", "grasp_x", "grasp_y",
+          "grasp_z", "approach_x", "approach_y", "approach_z", "width_m", "score", "source"]
+TABLE_FIELDS = ["planner", "gripper", "arrangement", "table", "seed", "objects", "objects_placed", "attempts",
+                "successes", "cleared", "rolled_away", "end"]
+BASELINE_NOTE = ("baseline: the pipeline plans for ONE target cluster (perception target_cluster, "
+                 "center_of_view); touching objects are one cluster; no per-object planning yet (issue 11 parts 2-3)")
+
+
+def parse_args(argv):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    p.add_argument("--planners", default="fused", help="comma list of grasp_offline algorithms")
+    p.add_argument("--gripper", default="robotiq_2f85", help="config/grippers/NAME.yaml or a YAML file")
+    p.add_argument("--tables", type=int, default=4, help="tables per arrangement")
+    p.add_argument("--objects-per-table", default="3,6", help="MIN,MAX objects placed per table")
+    p.add_argument("--arrangements", default="packed,piled", help="packed, piled or both")
+    p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
+    p.add_argument("--objects", default="", help="comma list of object names to draw from (default: the training half)")
+    p.add_argument("--kinds", default="ycb,parametric",
+                   help="ycb, parametric or both (ycb is skipped when no YCB folder is given)")
+    p.add_argument("--friction", type=float, default=0.8)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--params", default="", help="planner parameters YAML for grasp_offline")
+    p.add_argument("--split-touching-objects", action="store_true",
+                   help="passed to grasp_offline: cut clusters at concave creases (perception split_concave_creases)")
+    p.add_argument("--jobs", type=int, default=1)
+    p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/clutter"))
+    p.add_argument("--cache-dir", default=os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
+                                                         "physics_cache"))
+    p.add_argument("--ycb-dir", default=os.environ.get("FAST_GRASP_YCB_DIR", ""))
+    p.add_argument("--grasp-offline", default="", help="path of grasp_offline (default: from the catkin devel space)")
+    args = p.parse_args(argv)
+    lo, _, hi = args.objects_per_table.partition(",")
+    args.min_objects, args.max_objects = int(lo), int(hi or lo)
+    if not 1 <= args.min_objects <= args.max_objects:
+        p.error("--objects-per-table MIN,MAX with 1 <= MIN <= MAX")
+    args.arrangement_list = [a for a in args.arrangements.split(",") if a]
+    if not args.arrangement_list or set(args.arrangement_list) - {"packed", "piled"}:
+        p.error("--arrangements: packed, piled or packed,piled")
+    args.planner_list = [x for x in args.planners.split(",") if x]
+    # what evaluate_grasps_physics.plan reads
+    args.pool, args.follow_next_view = 1, 0
+    return args
+
+
+def load_candidates(args, gripper):
+    """The training-half objects that fit the gripper standing upright, in config order."""
+    from grasp_physics import clutter, objects
+    kinds = tuple(k for k in args.kinds.split(",") if k and (k != "ycb" or args.ycb_dir))
+    names = [n for n in args.objects.split(",") if n]
+    objs = objects.load_objects(args.objects_config, args.ycb_dir, args.cache_dir, "all" if names else "train",
+                                names, kinds)
+    return [o for o in objs if clutter.fits_gripper(o, gripper)]
+
+
+def table_seed(args, arrangement, index):
+    return args.seed * 100000 + (1 if arrangement == "packed" else 2) * 1000 + index
+
+
+# ---- render scene of the remaining objects -----------------------------------------------------
+COLOURS = [(200, 60, 40), (60, 160, 70), (50, 90, 200), (220, 180, 40), (150, 60, 170), (40, 170, 170)]
+
+
+def write_clutter_scene(folder, scene, poses, names, eye, target, seed):
+    """Renderer scene (docs/renderer.md) of the remaining objects: each settled object's visual
+    mesh turned to its pose and baked into its own STL (the scene format has yaw only), named
+    with centre_on_base: false at its x, y. The object nearest the looked-at point is marked
+    target (the truth file's object; the pipeline chooses its own target cluster)."""
+    nearest = int(np.argmin([np.linalg.norm(p[0][:2] - np.asarray(target[:2])) for p in poses]))
+    with open(os.path.join(folder, "scene.yaml"), "w") as f:
+        f.write("name: clutter\nseed: %d\nframes: 1\ncompression: none\n" % seed)
+        f.write("table: {size_m: [1.2, 0.8, 0.04], centre_xy_m: [%.4f, %.4f], top_z_m: 0.0, rgb: [150, 110, 75]}\n"
+                % single.trial_lib.TABLE_CENTRE_XY_M)
+        f.write("objects:\n")
+        for k, (pos, quat) in enumerate(poses):
+            mesh = scene.objs[k].visual.copy()
+            mesh.vertices = single.trial_lib.rotated(mesh.vertices, quat) + np.array([0.0, 0.0, pos[2]])
+            mesh_name = "object_%d.stl" % k
+            mesh.export(os.path.join(folder, mesh_name))
+            f.write("  - name: %s\n    target: %s\n    xy_m: [%.6f, %.6f]\n    parts:\n"
+                    "      - {mesh: %s, centre_on_base: false, rgb: [%d, %d, %d]}\n"
+                    % (names[k], "true" if k == nearest else "false", pos[0], pos[1], mesh_name,
+                       *COLOURS[k % len(COLOURS)]))
+        f.write("cameras:\n  - {prefix: camera, eye_m: [%.5f, %.5f, %.5f], target_m: [%.5f, %.5f, %.5f]}\n"
+                % (tuple(eye) + tuple(target)))
+    return os.path.join(folder, "scene.yaml")
+
+
+def objects_in_cluster(cluster_pcd, scene, poses, names, near_m=0.006, share=0.05):
+    """Which objects the pipeline's target cluster covers: those owning at least `share` of its
+    points (a point belongs to the object whose surface is nearest, within near_m). One name is
+    the right cluster; several are the merged blob of issue 11."""
+    if not os.path.exists(cluster_pcd):
+        return []
+    import trimesh
+    from scipy.spatial import cKDTree
+    xyz = single.read_pcd_xyz(cluster_pcd)
+    xyz = xyz[np.isfinite(xyz).all(axis=1)]
+    if len(xyz) == 0:
+        return []
+    distances = []
+    for k, pose in enumerate(poses):
+        mesh = scene.objs[k].visual.copy()
+        mesh.vertices = single.trial_lib.rotated(mesh.vertices, pose[1]) + pose[0]
+        surface = trimesh.sample.sample_surface(mesh, 4000, seed=k)[0]  # seeded: same seed, same report
+        distances.append(cKDTree(surface).query(xyz)[0])
+    distances = np.stack(distances, axis=1)
+    owner = np.where(distances.min(axis=1) < near_m, distances.argmin(axis=1), -1)
+    return [names[k] for k in range(len(poses)) if (owner == k).mean() >= share]
+
+
+# ---- one table: clear it -----------------------------------------------------------------------
+def clear_table(job):
+    args, planner, arrangement, index, candidates = job
+    single.import_physics()
+    from grasp_physics import clutter
+    gripper = single.gripper_lib.load_gripper(single.gripper_path(args.gripper))
+    params = single.trial_lib.TrialParams(friction=args.friction)
+    seed = table_seed(args, arrangement, index)
+    rng = np.random.default_rng(seed)
+    count = int(rng.integers(args.min_objects, args.max_objects + 1))
+    chosen = [candidates[i] for i in rng.choice(len(candidates), size=min(count, len(candidates)), replace=False)]
+    scene, poses = clutter.make_table(arrangement, chosen, gripper, rng, params)
+    objs = list(scene.objs)
+    placed = len(objs)
+    grasp_offline = single.find_grasp_offline(args.grasp_offline)
+    base = {"planner": planner, "gripper": gripper["name"], "arrangement": arrangement, "table": index,
+            "objects_placed": placed}
+    rows, successes, cleared, rolled_away, failures_in_row, end = [], 0, 0, 0, 0, ""
+    attempt = 0
+    with tempfile.TemporaryDirectory(prefix="fg_clutter_") as folder:
+        while True:
+            if not objs:
+                end = "empty"
+                break
+            if failures_in_row >= 2:
+                end = "two failures in a row"
+                break
+            attempt += 1
+            names = [o.name for o in objs]
+            tops = [scene.world_vertices(k, poses[k])[:, 2].max() for k in range(len(objs))]
+            centre = np.array([np.mean([p[0][0] for p in poses]), np.mean([p[0][1] for p in poses]),
+                               0.5 * max(tops)])
+            eye, target = single.camera_for(centre, rng)
+            scene_yaml = write_clutter_scene(folder, scene, poses, names, eye, target, seed % 100000 + attempt)
+            cluster_pcd = os.path.join(folder, "cluster_%d.pcd" % attempt)
+            report = single.plan(grasp_offline, scene_yaml, planner, single.gripper_path(args.gripper), args,
+                                 cluster_pcd)
+            grasps = single.grasps_from_report(report)
+            in_cluster = objects_in_cluster(cluster_pcd, scene, poses, names)
+            row = dict(base, attempt=attempt, objects_left=len(objs), status=report.get("status", "?"),
+                       message=report.get("message", "")[:200],
+                       planning_ms=1000 * (report.get("compute_time_s") or 0.0),
+                       target_cluster_objects=len(in_cluster), target_cluster_names=" ".join(in_cluster))
+            if not grasps:
+                rows.append(row)
+                attempt -= 1  # a planning call without a grasp is not a grasp attempt
+                end = "no grasp"
+                break
+            grasp = grasps[0]
+            outcome = scene.execute(poses, grasp["rotation"], grasp["position"])
+            r = grasp["rotation"]
+            row.update(success=outcome["success"], failure_phase=outcome["failure_phase"],
+                       unexpected_contact=outcome["unexpected_contact"], contact_phase=outcome["contact_phase"],
+                       table_contact=outcome["table_contact"], lifted_together=outcome["lifted_together"],
+                       unstable=outcome["unstable"],
+                       grasped_object=names[outcome["grasped"]] if outcome["grasped"] >= 0 else "",
+                       closed_on=names[outcome["closed_on"]] if outcome["closed_on"] >= 0 else "",
+                       grasp_x=grasp["position"][0], grasp_y=grasp["position"][1], grasp_z=grasp["position"][2],
+                       approach_x=r[0, 0], approach_y=r[1, 0], approach_z=r[2, 0], width_m=grasp["width_m"],
+                       score=grasp["score"], source=grasp.get("source", ""))
+            # what is left after the trial: the grasped object leaves with the hand; the others
+            # (and an object a failed grasp dropped) settle without the hand
+            after = scene.poses()
+            keep = [k for k in range(len(objs)) if k != outcome["grasped"]]
+            if outcome["success"]:
+                successes += 1
+                cleared += 1
+                failures_in_row = 0
+            else:
+                failures_in_row += 1
+            objs = [objs[k] for k in keep]
+            poses = [after[k] for k in keep]
+            scene = clutter.ClutterScene(objs, gripper, params)
+            scene.set_poses(poses)
+            poses = scene.settle()
+            stay = clutter.on_table(scene, poses)
+            row["rolled_away"] = len(objs) - len(stay)
+            rolled_away += len(objs) - len(stay)
+            if len(stay) < len(objs):
+                objs = [objs[k] for k in stay]
+                poses = [poses[k] for k in stay]
+                scene = clutter.ClutterScene(objs, gripper, params)
+                scene.set_poses(poses)
+            rows.append(row)
+    table = dict(base, seed=seed, objects=" ".join(o.name for o in chosen), attempts=attempt, successes=successes,
+                 cleared=cleared,
+                 rolled_away=rolled_away, end=end)
+    return rows, table
+
+
+# ---- report ------------------------------------------------------------------------------------
+def summarise(tables, rows, planners, arrangements, gripper_name):
+    lines, table_md = [], []
+    for planner in planners:
+        for arrangement in arrangements:
+            t = [x for x in tables if x["planner"] == planner and x["arrangement"] == arrangement]
+            if not t:
+                continue
+            attempts = sum(x["attempts"] for x in t)
+            successes = sum(x["successes"] for x in t)
+            placed = sum(x["objects_placed"] for x in t)
+            cleared = sum(x["cleared"] for x in t)
+            success_pct = 100.0 * successes / attempts if attempts else 0.0
+            cleared_pct = 100.0 * cleared / placed if placed else 0.0
+            calls = [r for r in rows if r["planner"] == planner and r["arrangement"] == arrangement]
+            single_object = sum(1 for r in calls if r.get("target_cluster_objects") == 1)
+            merged = sum(1 for r in calls if (r.get("target_cluster_objects") or 0) > 1)
+            ends = {}
+            for x in t:
+                ends[x["end"]] = ends.get(x["end"], 0) + 1
+            table_md.append("| %s | %s | %d | %d | %d | %d | %d | %.0f | %.0f | %d / %d / %d | %s |" % (
+                planner, arrangement, len(t), placed, attempts, successes, cleared, success_pct, cleared_pct,
+                single_object, merged, len(calls),
+                ", ".join("%s %d" % kv for kv in sorted(ends.items()))))
+            lines.append("%s %s clutter-%s: success %.0f %% cleared %.0f %%"
+                         % (planner, gripper_name, arrangement, success_pct, cleared_pct))
+    return table_md, lines
+
+
+def main(argv):
+    args = parse_args(argv)
+    single.import_physics()
+    gripper = single.gripper_lib.load_gripper(single.gripper_path(args.gripper))
+    candidates = load_candidates(args, gripper)
+    if not candidates:
+        sys.exit("no objects that fit %s" % gripper["name"])
+    jobs = [(args, planner, arrangement, index, candidates)
+            for planner in args.planner_list for arrangement in args.arrangement_list for index in range(args.tables)]
+    os.makedirs(args.out_dir, exist_ok=True)
+    t0 = time.time()
+    if args.jobs > 1:
+        with multiprocessing.Pool(args.jobs) as pool:
+            results = pool.map(clear_table, jobs, chunksize=1)
+    else:
+        results = [clear_table(j) for j in jobs]
+    rows = [r for rs, _ in results for r in rs]
+    tables = [t for _, t in results]
+    with open(os.path.join(args.out_dir, "attempts.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=FIELDS, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    with open(os.path.join(args.out_dir, "tables.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=TABLE_FIELDS, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(tables)
+    table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"])
+    header = ("# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
+              "training objects that fit, seed %d%s, %.0f s"
+              % (single.gripper_lib.finger_reach_note(gripper), args.friction, args.tables, args.min_objects,
+                 args.max_objects, len(candidates), args.seed,
+                 ", split touching objects" if args.split_touching_objects else "", time.time() - t0))
+    out = [header,
+           "# " + BASELINE_NOTE,
+           "| planner | arrangement | tables | objects placed | attempts | successes | cleared | success % | "
+           "cleared % | target cluster one object / several / planning calls | tables ended by |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"] + table_md
+    with open(os.path.join(args.out_dir, "summary.txt"), "w") as f:
+        f.write("\n".join(out + lines) + "\n")
+    print("\n".join(out))
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
