@@ -29,10 +29,10 @@ std::pair<float, float> extentAlong(const CloudNormal& cloud, const Eigen::Vecto
   return { lo, hi };
 }
 
-/// `view` with every k-th point of its cloud, so that at most `max_points` remain (0 = all).
 /// Smallest boundary-grid cell of the full-resolution check's unseen part (perception's voxel leaf).
 constexpr double kFullCheckMinCellM = 0.005;
 
+/// `view` with every k-th point of its cloud, so that at most `max_points` remain (0 = all).
 ObjectView thinned(const ObjectView& view, std::size_t max_points)
 {
   if (max_points == 0 || view.cloud->size() <= max_points)
