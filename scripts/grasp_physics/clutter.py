@@ -14,7 +14,8 @@ import numpy as np
 
 from . import gripper as gripper_mjcf
 from . import objects as objects_lib
-from .trial import TABLE_CENTRE_XY_M, TABLE_HALF_SIZE_M, TrialParams, _f, _smooth, object_geoms, random_quat, rotated
+from .trial import (TABLE_CENTRE_XY_M, TABLE_HALF_SIZE_M, TrialParams, _f, execute_grasp, object_geoms, random_quat,
+                    rotated)
 
 # where the clutter is built: in front of the robot like the single-object evaluator's objects
 CLUTTER_CENTRE_XY_M = (0.5, 0.0)
@@ -151,87 +152,32 @@ class ClutterScene:
 
     # ---- grasp -----------------------------------------------------------------------------
     def execute(self, poses, grasp_rotation, grasp_position):
-        """trial.Scene.execute with every object of the scene present: the hand comes 5 cm back
-        along the approach, approaches, closes, lifts 15 cm, shakes and holds. Success: an object
-        rose more than lifted_m and is in both fingers at the end (`grasped` is its index, -1 when
+        """trial.execute_grasp with every object of the scene present. Success: an object rose
+        more than lifted_m and is in both fingers at the end (`grasped` is its index, -1 when
         none). Unexpected contact: the hand touches the table, or any object before closing."""
-        m, d, p = self.model, self.data, self.params
+        d, p = self.data, self.params
         self.set_poses(poses)
         rest_z = [float(d.xipos[b][2]) for b in self.bodies]
-        rot = np.asarray(grasp_rotation, float)
-        target = np.asarray(grasp_position, float)
-        approach = rot[:, 0] / np.linalg.norm(rot[:, 0])
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, rot.reshape(-1))
-        start = target - p.pregrasp_back_m * approach
-        d.qpos[self.hand_qadr:self.hand_qadr + 3] = start
-        d.qpos[self.hand_qadr + 3:self.hand_qadr + 7] = quat
-        d.mocap_pos[self.mocap] = start
-        d.mocap_quat[self.mocap] = quat
-        mujoco.mj_forward(m, d)
-        closed = gripper_mjcf.closed_control(self.gripper)
-        outcome = {"unexpected_contact": False, "contact_phase": "", "failure_phase": "", "success": False,
-                   "table_contact": False, "grasped": -1}
+        closed_on = []
+
+        def closed_on_object():
+            closed_on[:] = self.objects_in_both_fingers()
+            return bool(closed_on)
+
+        def lifted_in_hand():
+            return [k for k in self.objects_in_both_fingers()
+                    if d.xipos[self.bodies[k]][2] - rest_z[k] > p.lifted_m]
 
         def hand_touches(pairs, prefix):
             return any(any(r.startswith(prefix) for r in pr) and any(r.startswith(h) for h in HAND_ROLES for r in pr)
                        for pr in pairs)
 
-        def run(seconds, phase, update):
-            n = max(1, int(round(seconds / m.opt.timestep)))
-            for i in range(n):
-                update((i + 1) / n)
-                mujoco.mj_step(m, d)
-                pairs = self.contact_pairs()
-                if hand_touches(pairs, "table"):
-                    outcome["table_contact"] = True
-                    if not outcome["unexpected_contact"]:
-                        outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
-                if phase in ("pregrasp", "approach") and hand_touches(pairs, "object") \
-                        and not outcome["unexpected_contact"]:
-                    outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
-
-        def held_and_lifted():
-            return [k for k in self.objects_in_both_fingers()
-                    if d.xipos[self.bodies[k]][2] - rest_z[k] > p.lifted_m]
-
-        run(p.pregrasp_hold_s, "pregrasp", lambda s: None)
-        run(p.approach_s, "approach", lambda s: d.mocap_pos.__setitem__(
-            self.mocap, start + _smooth(s) * p.pregrasp_back_m * approach))
-        run(p.close_s, "close", lambda s: d.ctrl.__setitem__(slice(None), np.asarray(closed) * min(1.0, 2.0 * s)))
-        in_hand = self.objects_in_both_fingers()
-        outcome["closed_on"] = in_hand[0] if in_hand else -1
-        if not in_hand:
-            outcome["failure_phase"] = "close"
-        lift_start = d.mocap_pos[self.mocap].copy()
-        run(p.lift_s, "lift", lambda s: d.mocap_pos.__setitem__(
-            self.mocap, lift_start + np.array([0, 0, p.lift_m * _smooth(s)])))
-        if not outcome["failure_phase"] and not held_and_lifted():
-            outcome["failure_phase"] = "lift"
-        base_quat = d.mocap_quat[self.mocap].copy()
-        amplitude = math.radians(p.shake_deg)
-
-        def shake(s):
-            axis = np.array([1.0, 0, 0]) if s < 0.5 else np.array([0, 1.0, 0])
-            q = np.zeros(4)
-            mujoco.mju_axisAngle2Quat(q, axis, amplitude * math.sin(2.0 * math.pi * (2.0 * s % 1.0)))
-            out = np.zeros(4)
-            mujoco.mju_mulQuat(out, q, base_quat)
-            d.mocap_quat[self.mocap] = out
-
-        run(p.shake_s, "shake", shake)
-        if not outcome["failure_phase"] and not held_and_lifted():
-            outcome["failure_phase"] = "shake"
-        run(p.hold_s, "hold", lambda s: None)
-        lifted = held_and_lifted()
-        if not outcome["failure_phase"] and not lifted:
-            outcome["failure_phase"] = "hold"
-        outcome["success"] = not outcome["failure_phase"]
+        outcome = execute_grasp(self, grasp_rotation, grasp_position, closed_on_object,
+                                lambda: bool(lifted_in_hand()), hand_touches)
+        lifted = lifted_in_hand()
+        outcome["closed_on"] = closed_on[0] if closed_on else -1
         outcome["grasped"] = lifted[0] if lifted and outcome["success"] else -1
         outcome["lifted_together"] = len(lifted)
-        outcome["unstable"] = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number) > 0
-        if outcome["unstable"]:
-            outcome["success"], outcome["failure_phase"], outcome["grasped"] = False, "unstable", -1
         return outcome
 
 

@@ -176,81 +176,96 @@ class Scene:
         mujoco.mj_resetData(m, d)
         d.qpos[self.obj_qadr:self.obj_qadr + 3] = rest_pos
         d.qpos[self.obj_qadr + 3:self.obj_qadr + 7] = rest_quat
-        rot = np.asarray(grasp_rotation, float)
-        target = np.asarray(grasp_position, float)
-        approach = rot[:, 0] / np.linalg.norm(rot[:, 0])
-        quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, rot.reshape(-1))
-        start = target - p.pregrasp_back_m * approach
-        d.qpos[self.hand_qadr:self.hand_qadr + 3] = start
-        d.qpos[self.hand_qadr + 3:self.hand_qadr + 7] = quat
-        d.mocap_pos[self.mocap] = start
-        d.mocap_quat[self.mocap] = quat
         d.ctrl[:] = 0.0
         mujoco.mj_forward(m, d)
-        closed = gripper_mjcf.closed_control(self.gripper)
-        outcome = {"unexpected_contact": False, "contact_phase": "", "failure_phase": "",
-                   "success": False, "table_contact": False}
         rest_z = float(d.xipos[self.object_body][2])  # centre of mass: the body origin turns with it
-
-        def run(seconds, phase, update):
-            n = max(1, int(round(seconds / m.opt.timestep)))
-            for i in range(n):
-                update((i + 1) / n)
-                mujoco.mj_step(m, d)
-                pairs = self.contact_pairs()
-                if self.hand_touches(pairs, "table"):
-                    outcome["table_contact"] = True
-                    if not outcome["unexpected_contact"]:
-                        outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
-                if phase in ("pregrasp", "approach") and self.hand_touches(pairs, "object") \
-                        and not outcome["unexpected_contact"]:
-                    outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
 
         def held():
             pairs = self.contact_pairs()
             return ("finger_a", "object") in pairs and ("finger_b", "object") in pairs
 
-        def lifted():
-            return d.xipos[self.object_body][2] - rest_z > p.lifted_m
+        def held_and_lifted():
+            return held() and d.xipos[self.object_body][2] - rest_z > p.lifted_m
 
-        run(p.pregrasp_hold_s, "pregrasp", lambda s: None)
-        run(p.approach_s, "approach", lambda s: d.mocap_pos.__setitem__(
-            self.mocap, start + _smooth(s) * p.pregrasp_back_m * approach))
-        run(p.close_s, "close", lambda s: d.ctrl.__setitem__(slice(None), np.asarray(closed) * min(1.0, 2.0 * s)))
-        if not held():
-            outcome["failure_phase"] = "close"
-        lift_start = d.mocap_pos[self.mocap].copy()
-        run(p.lift_s, "lift", lambda s: d.mocap_pos.__setitem__(
-            self.mocap, lift_start + np.array([0, 0, p.lift_m * _smooth(s)])))
-        if not outcome["failure_phase"] and not (held() and lifted()):
-            outcome["failure_phase"] = "lift"
-        base_quat = d.mocap_quat[self.mocap].copy()
-        amplitude = math.radians(p.shake_deg)
-
-        def shake(s):
-            axis = np.array([1.0, 0, 0]) if s < 0.5 else np.array([0, 1.0, 0])
-            angle = amplitude * math.sin(2.0 * math.pi * (2.0 * s % 1.0))
-            q = np.zeros(4)
-            mujoco.mju_axisAngle2Quat(q, axis, angle)
-            out = np.zeros(4)
-            mujoco.mju_mulQuat(out, q, base_quat)
-            d.mocap_quat[self.mocap] = out
-
-        run(p.shake_s, "shake", shake)
-        if not outcome["failure_phase"] and not (held() and lifted()):
-            outcome["failure_phase"] = "shake"
-        run(p.hold_s, "hold", lambda s: None)
-        if not outcome["failure_phase"] and not (held() and lifted()):
-            outcome["failure_phase"] = "hold"
-        outcome["success"] = not outcome["failure_phase"]
+        outcome = execute_grasp(self, grasp_rotation, grasp_position, held, held_and_lifted, self.hand_touches)
         outcome["object_rise_m"] = float(d.xipos[self.object_body][2] - rest_z)
-        # MuJoCo resets a diverging simulation and warns; such a trial says nothing about the grasp
-        outcome["unstable"] = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number) > 0
-        if outcome["unstable"]:
-            outcome["success"], outcome["failure_phase"] = False, "unstable"
         return outcome
 
+
+def execute_grasp(scene, grasp_rotation, grasp_position, closed_on_object, held_and_lifted, hand_touches):
+    """The grasp every trial runs, one object or a cluttered table: the hand (coupled to its
+    mocap target) starts 5 cm back along the approach, approaches, closes under its force limit,
+    lifts 15 cm, shakes about two horizontal axes and holds. `closed_on_object()` says whether the
+    closed fingers hold something, `held_and_lifted()` whether it is held and up after each later
+    phase, `hand_touches(pairs, what)` whether a contact pair joins the hand and `what` ("table",
+    "object"). `scene` provides model, data, params, gripper, mocap, hand_qadr, contact_pairs().
+    Returns the outcome: success, failure_phase, unexpected_contact and contact_phase (the hand on
+    the table at any time, or on an object before closing), table_contact, unstable."""
+    m, d, p = scene.model, scene.data, scene.params
+    rot = np.asarray(grasp_rotation, float)
+    target = np.asarray(grasp_position, float)
+    approach = rot[:, 0] / np.linalg.norm(rot[:, 0])
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, rot.reshape(-1))
+    start = target - p.pregrasp_back_m * approach
+    d.qpos[scene.hand_qadr:scene.hand_qadr + 3] = start
+    d.qpos[scene.hand_qadr + 3:scene.hand_qadr + 7] = quat
+    d.mocap_pos[scene.mocap] = start
+    d.mocap_quat[scene.mocap] = quat
+    mujoco.mj_forward(m, d)
+    closed = gripper_mjcf.closed_control(scene.gripper)
+    outcome = {"unexpected_contact": False, "contact_phase": "", "failure_phase": "",
+               "success": False, "table_contact": False}
+
+    def run(seconds, phase, update):
+        n = max(1, int(round(seconds / m.opt.timestep)))
+        for i in range(n):
+            update((i + 1) / n)
+            mujoco.mj_step(m, d)
+            pairs = scene.contact_pairs()
+            if hand_touches(pairs, "table"):
+                outcome["table_contact"] = True
+                if not outcome["unexpected_contact"]:
+                    outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
+            if phase in ("pregrasp", "approach") and hand_touches(pairs, "object") \
+                    and not outcome["unexpected_contact"]:
+                outcome["unexpected_contact"], outcome["contact_phase"] = True, phase
+
+    run(p.pregrasp_hold_s, "pregrasp", lambda s: None)
+    run(p.approach_s, "approach", lambda s: d.mocap_pos.__setitem__(
+        scene.mocap, start + _smooth(s) * p.pregrasp_back_m * approach))
+    run(p.close_s, "close", lambda s: d.ctrl.__setitem__(slice(None), np.asarray(closed) * min(1.0, 2.0 * s)))
+    if not closed_on_object():
+        outcome["failure_phase"] = "close"
+    lift_start = d.mocap_pos[scene.mocap].copy()
+    run(p.lift_s, "lift", lambda s: d.mocap_pos.__setitem__(
+        scene.mocap, lift_start + np.array([0, 0, p.lift_m * _smooth(s)])))
+    if not outcome["failure_phase"] and not held_and_lifted():
+        outcome["failure_phase"] = "lift"
+    base_quat = d.mocap_quat[scene.mocap].copy()
+    amplitude = math.radians(p.shake_deg)
+
+    def shake(s):
+        axis = np.array([1.0, 0, 0]) if s < 0.5 else np.array([0, 1.0, 0])
+        angle = amplitude * math.sin(2.0 * math.pi * (2.0 * s % 1.0))
+        q = np.zeros(4)
+        mujoco.mju_axisAngle2Quat(q, axis, angle)
+        out = np.zeros(4)
+        mujoco.mju_mulQuat(out, q, base_quat)
+        d.mocap_quat[scene.mocap] = out
+
+    run(p.shake_s, "shake", shake)
+    if not outcome["failure_phase"] and not held_and_lifted():
+        outcome["failure_phase"] = "shake"
+    run(p.hold_s, "hold", lambda s: None)
+    if not outcome["failure_phase"] and not held_and_lifted():
+        outcome["failure_phase"] = "hold"
+    outcome["success"] = not outcome["failure_phase"]
+    # MuJoCo resets a diverging simulation and warns; such a trial says nothing about the grasp
+    outcome["unstable"] = int(d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number) > 0
+    if outcome["unstable"]:
+        outcome["success"], outcome["failure_phase"] = False, "unstable"
+    return outcome
 
 def _smooth(s):
     """Minimum-jerk-like 0..1 ramp."""
