@@ -12,10 +12,8 @@ import math
 import mujoco
 import numpy as np
 
-from . import gripper as gripper_mjcf
 from . import objects as objects_lib
-from .trial import (TABLE_CENTRE_XY_M, TABLE_HALF_SIZE_M, TrialParams, _f, execute_grasp, object_geoms, random_quat,
-                    rotated)
+from .trial import TrialParams, _f, execute_grasp, object_geoms, random_quat, rotated, world_xml
 
 # where the clutter is built: in front of the robot like the single-object evaluator's objects
 CLUTTER_CENTRE_XY_M = (0.5, 0.0)
@@ -31,7 +29,6 @@ def fits_gripper(obj, gripper, margin_m=0.005):
 
 
 def clutter_xml(objs, gripper, params):
-    hand, equality, actuators, tendons, excludes = gripper_mjcf.hand_mjcf(gripper, params.friction)
     assets, bodies = [], []
     for k, obj in enumerate(objs):
         a, geoms = object_geoms(obj, params.friction, "obj_%d_" % k, "obj_mesh_%d_" % k)
@@ -39,26 +36,7 @@ def clutter_xml(objs, gripper, params):
         bodies.append('<body name="object_%d" pos="%s">\n      <freejoint name="object_%d_free"/>\n'
                       '      %s\n    </body>'
                       % (k, _f(0.5, 0.3 * k, 0.5), k, "\n      ".join(geoms)))
-    return """<mujoco model="clutter_trial">
-  <compiler angle="radian" inertiafromgeom="true" boundmass="0.001" boundinertia="1e-7"/>
-  <option timestep="%s" gravity="0 0 -9.81" cone="elliptic" impratio="10" integrator="implicit"/>
-  <default>
-    <geom solref="0.003 1" solimp="0.95 0.99 0.0005"/>
-  </default>
-  <asset>%s</asset>
-  <worldbody>
-    <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75"/>
-    <geom name="table" type="box" size="%s" pos="%s" friction="%s" condim="6" rgba="0.6 0.45 0.3 1"/>
-    %s
-    %s
-  </worldbody>
-  <contact>%s</contact>
-  <tendon>%s</tendon>
-  <equality>%s</equality>
-  <actuator>%s</actuator>
-</mujoco>""" % (_f(params.timestep_s), "\n".join(assets), _f(*TABLE_HALF_SIZE_M),
-                _f(TABLE_CENTRE_XY_M[0], TABLE_CENTRE_XY_M[1], -TABLE_HALF_SIZE_M[2]),
-                _f(params.friction, 0.005, 0.0005), "\n    ".join(bodies), hand, excludes, tendons, equality, actuators)
+    return world_xml("clutter_trial", params, gripper, assets, bodies)
 
 
 class ClutterScene:

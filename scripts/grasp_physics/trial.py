@@ -69,10 +69,11 @@ def object_geoms(obj, friction, geom_prefix="obj_", mesh_prefix="obj_mesh_"):
     return assets, geoms
 
 
-def scene_xml(obj, gripper, params):
+def world_xml(model_name, params, gripper, assets, bodies):
+    """The MuJoCo world of every trial: stiff contacts, the floor, the table, `bodies` (MJCF body
+    strings of the objects) and the hand built from the gripper YAML."""
     hand, equality, actuators, tendons, excludes = gripper_mjcf.hand_mjcf(gripper, params.friction)
-    assets, geoms = object_geoms(obj, params.friction)
-    return """<mujoco model="grasp_trial">
+    return """<mujoco model="%s">
   <compiler angle="radian" inertiafromgeom="true" boundmass="0.001" boundinertia="1e-7"/>
   <option timestep="%s" gravity="0 0 -9.81" cone="elliptic" impratio="10" integrator="implicit"/>
   <default>
@@ -84,20 +85,24 @@ def scene_xml(obj, gripper, params):
   <worldbody>
     <geom name="floor" type="plane" size="3 3 0.1" pos="0 0 -0.75"/>
     <geom name="table" type="box" size="%s" pos="%s" friction="%s" condim="6" rgba="0.6 0.45 0.3 1"/>
-    <body name="object" pos="0.5 0 0.2">
-      <freejoint name="object_free"/>
-      %s
-    </body>
+    %s
     %s
   </worldbody>
   <contact>%s</contact>
   <tendon>%s</tendon>
   <equality>%s</equality>
   <actuator>%s</actuator>
-</mujoco>""" % (_f(params.timestep_s), "\n".join(assets), _f(*TABLE_HALF_SIZE_M),
+</mujoco>""" % (model_name, _f(params.timestep_s), "\n".join(assets), _f(*TABLE_HALF_SIZE_M),
                 _f(TABLE_CENTRE_XY_M[0], TABLE_CENTRE_XY_M[1], -TABLE_HALF_SIZE_M[2]),
-                _f(params.friction, 0.005, 0.0005), "\n      ".join(geoms), hand, excludes, tendons,
+                _f(params.friction, 0.005, 0.0005), "\n    ".join(bodies), hand, excludes, tendons,
                 equality, actuators)
+
+
+def scene_xml(obj, gripper, params):
+    assets, geoms = object_geoms(obj, params.friction)
+    body = ('<body name="object" pos="0.5 0 0.2">\n      <freejoint name="object_free"/>\n      %s\n    </body>'
+            % "\n      ".join(geoms))
+    return world_xml("grasp_trial", params, gripper, assets, [body])
 
 
 class Scene:

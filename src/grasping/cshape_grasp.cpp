@@ -838,7 +838,9 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
       // as deep as its own boxes clear the object, the unseen part and the table. The C body
       // is not checked there: it reaches r2 ahead of its centre, the real fingers only
       // finger_depth / 2.
-      const GripperFit deeper = ctx.hand->fitDeepest(grasp.pose, grasp.width_m);
+      // (without max_advance_m, fitDeepest would only repeat the fit above)
+      const GripperFit deeper = params.gripper_fit.max_advance_m > 0.0 ? ctx.hand->fitDeepest(grasp.pose, grasp.width_m)
+                                                                        : GripperFit{};
       grasp.pose = deeper.ok ? deeper.pose : fitted.pose;
     }
     best.passed = true;
