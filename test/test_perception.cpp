@@ -492,6 +492,36 @@ TEST(TableSegmentation, TwoObjectsTwentyCentimetresApartAreTwoClusters)
   EXPECT_FALSE(parseTargetCluster("biggest", parsed));
 }
 
+TEST(TableSegmentation, ASixteenMillimetreCubeIsAnObjectAndTableNoiseIsNot)
+{
+  // A 16 mm dice on a 2 mm-noise table, 5 mm voxels: its top face holds (16 / 5)^2 ~ 10 points
+  // and its sides only their upper 6 mm (the lower 1 cm is table by min_height_above_table_m),
+  // fewer than the 30 points the cluster minimum once asked for. It must come out as the one
+  // cluster, and the table's noise (2 mm sigma: 5 sigma below the 1 cm band) must form none.
+  std::mt19937 rng(11);
+  auto cloud = std::make_shared<CloudXYZ>();
+  addPatch(*cloud, Eigen::Vector3f(0.2f, -0.4f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.8f,
+           0.005f, 0.002f, rng);
+  const std::size_t table_points = cloud->size();
+  const Eigen::Vector3f eye(0.5f, -0.3f, 0.6f);
+  addBox(*cloud, Eigen::Vector2f(0.5f, 0.0f), 0.0f, Eigen::Vector3f(0.016f, 0.016f, 0.016f), 0.005f, rng, eye);
+  finish(*cloud);
+  aimCamera(*cloud, eye, Eigen::Vector3f(0.5f, 0.0f, 0.0f));
+  const TableSegmentationParams params;
+  const TableSegmentationResult result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_LT(result.object->size(), 30u);
+  EXPECT_NEAR(result.object_centroid.x(), 0.5f, 0.01f);
+  EXPECT_NEAR(result.object_centroid.y(), 0.0f, 0.01f);
+  EXPECT_NEAR(result.object_max.z(), 0.016f, 0.004f);
+
+  auto bare_table = std::make_shared<CloudXYZ>(*cloud);
+  bare_table->resize(table_points);
+  finish(*bare_table);
+  EXPECT_EQ(segmentTable(bare_table, params).failure, SegmentationFailure::NoCluster);
+}
+
 TEST(TableSegmentation, StackedPartSplitByAGapIsMergedIntoTheObject)
 {
   // A bottle body (0-15 cm) and its cap (18-21 cm) with a 3 cm unseen neck between them: two

@@ -196,6 +196,7 @@ struct Counts
 {
   int objects = 0, right = 0, merged = 0, split = 0;
   int fit_objects = 0, fit_right = 0;
+  int clusters = 0, spurious = 0;  // clusters, and those mostly of unlabelled or table points
 };
 }  // namespace
 
@@ -215,6 +216,7 @@ int main(int argc, char** argv)
       "                    euclidean (Euclidean clusters only) or lccp (experiment: PCL's LCCP over the\n"
       "                    Euclidean clusters, --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n"
       "  --tolerance-rad R, --link-radius-m M, --k N, --min-piece N: the concave split's parameters\n"
+      "  --min-cluster-points N, --min-height-m H: the segmentation's smallest cluster and lowest object point\n"
       "                    (default: config/perception.yaml's)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   std::string data = std::getenv("FAST_GRASP_MOSD_DIR") ? std::getenv("FAST_GRASP_MOSD_DIR") : "";
@@ -254,6 +256,10 @@ int main(int argc, char** argv)
       params.concave_split.k_neighbours = std::stoi(value);
     else if (flag == "--min-piece")
       params.concave_split.min_piece_points = std::stoi(value);
+    else if (flag == "--min-cluster-points")
+      params.min_cluster_points = std::stoi(value);
+    else if (flag == "--min-height-m")
+      params.min_height_above_table_m = std::stod(value);
     else if (flag == "--seed-m")
       seed_m = std::stof(value);
     else if (flag == "--concavity-deg")
@@ -305,9 +311,7 @@ int main(int argc, char** argv)
   }
 
   params.plane_distance_m = 0.01;
-  params.min_height_above_table_m = 0.01;
   params.cluster_tolerance_m = 0.02;
-  params.min_cluster_points = 30;
   params.max_object_distance_m = 0.0;  // no robot here: every cluster counts
   params.split_concave_creases = method == "concave";  // lccp re-cuts the Euclidean clusters
   if (method != "euclidean" && method != "concave" && method != "lccp")
@@ -389,6 +393,16 @@ int main(int argc, char** argv)
       scene.fit_objects += fits;
       scene.fit_right += fits && right;
     }
+    // A cluster that is mostly not object points (table noise, a wall, a cup's shadow) would be
+    // planned on as an object: the price of a lower min_cluster_points or min_height.
+    for (const auto& cluster : result.clusters)
+    {
+      std::size_t on_objects = 0;
+      for (const int i : cluster.indices)
+        on_objects += sampled[static_cast<std::size_t>(i)].label >= 10;
+      ++scene.clusters;
+      scene.spurious += 2 * on_objects < cluster.indices.size();
+    }
     std::printf("%-10s %7d %5d %5d %6d %5d %8.1f%s\n", std::filesystem::path(file).stem().c_str(), scene.objects,
                 scene.right, scene.merged, scene.split, scene.fit_objects, ms, result.ok() ? "" : "  (no cluster)");
     total.objects += scene.objects;
@@ -397,10 +411,13 @@ int main(int argc, char** argv)
     total.split += scene.split;
     total.fit_objects += scene.fit_objects;
     total.fit_right += scene.fit_right;
+    total.clusters += scene.clusters;
+    total.spurious += scene.spurious;
   }
   auto pct = [](int a, int b) { return b > 0 ? 100.0 * a / b : 0.0; };
   std::printf("split %s: %d scenes, %d labelled objects (%d fit the %.3f m opening)\n", split.c_str(), static_cast<int>(frame_ms.size()),
               total.objects, total.fit_objects, opening);
+  std::printf("clusters: %d, of them %d mostly not object points (spurious)\n", total.clusters, total.spurious);
   std::printf("segmentation: right %.0f %% (fits: %.0f %%) merged %.0f %% split %.0f %% median %.1f ms per frame\n",
               pct(total.right, total.objects), pct(total.fit_right, total.fit_objects), pct(total.merged, total.objects),
               pct(total.split, total.objects), median(frame_ms));

@@ -42,7 +42,7 @@ struct TableSegmentationParams
   double min_height_above_table_m = 0.01;
   /// Euclidean clustering of what stands on the table.
   double cluster_tolerance_m = 0.02;
-  int min_cluster_points = 30;
+  int min_cluster_points = 10;
   int max_cluster_points = 100000;
   /// Cut each Euclidean cluster at its concave creases (concave_split.h), so touching objects
   /// come out as separate clusters. Normals face the input's sensor_origin_. Off by default: it
