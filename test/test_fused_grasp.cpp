@@ -268,6 +268,53 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
   EXPECT_LE(palm, 0.05 + 0.005 + 0.005 + 1e-3);
 }
 
+TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
+{
+  // A can (radius 3.3 cm, 12 cm long: longer than the 85 mm opening) lying along y, seen from
+  // 52 deg above on its -x side: the camera sees its top and near side, not its far side.
+  // From either end, horizontally along y, the fingers close along x across its diameter: the
+  // closing line at the equator (half the 6.6 cm height; the palm, 4.4 cm wide, then stays 1.1
+  // cm off the table) through the axis (x = 0; the seen near edge at x = -3.3 cm plus the
+  // height), width 6.6 cm; the palm palm_clearance_m before the end, the fingers around it.
+  const double radius = 0.033, length = 0.12;
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
+  // 4 mm spacing: below max_pooled_points, so no full-resolution re-check (no pooled planner
+  // gives an unseen part here; with one, the far finger must stay out of it as well)
+  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, radius }, { 0.0, 1.0, 0.0 }, radius, length),
+                                     { camera, 0.004, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  FusedParams p = onlyGenerated();
+  p.top_down_directions = 0;
+  p.side_directions = 0;
+  p.max_grasps = 100;
+  p.gripper_fit.palm_clearance_m = 0.005;
+  p.gripper_fit.table_clearance_m = 0.006;
+  p.gripper_fit.max_table_tilt_rad = 0.0;
+  EXPECT_FALSE(FusedGraspPlanner({}, p).plan(view, gripper).ok());  // off: nothing generated
+
+  p.end_grasps = true;
+  const GraspResult result = FusedGraspPlanner({}, p).plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  ASSERT_EQ(result.grasps.size(), 2u);
+  std::set<int> ends;
+  for (const GraspCandidate& g : result.grasps)
+  {
+    EXPECT_NEAR(std::abs(g.approach().y()), 1.0, 1e-3);
+    EXPECT_NEAR(std::abs(g.binormal().x()), 1.0, 1e-3);
+    EXPECT_NEAR(g.position().z(), radius, 0.004);
+    EXPECT_NEAR(g.position().x(), 0.0, 0.005);
+    EXPECT_NEAR(g.width_m, 2.0 * radius, 0.005);
+    const double end = -0.5 * length * (g.approach().y() > 0.0 ? 1.0 : -1.0);  // the end it comes from
+    const double palm = g.approach().y() * (g.position().y() - end) - 0.5 * gripper.finger_depth_m;
+    EXPECT_NEAR(palm, -0.005, 0.003);  // the palm 5 mm before the end (+-1 mm points, 1 mm margin)
+    ends.insert(g.approach().y() > 0.0 ? 1 : -1);
+  }
+  EXPECT_EQ(ends.size(), 2u);
+}
+
 TEST(FusedGrasp, GraspsPlannedOnAThinnedViewAreCheckedAgainstTheFullViewsUnseenPart)
 {
   // The box seen densely (1 mm: ~7000 points). Its unseen back lies behind it along the camera

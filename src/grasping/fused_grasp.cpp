@@ -158,6 +158,67 @@ void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const Gr
     out.push_back(g);
   }
 }
+
+/// End-on grasps (FusedParams::end_grasps): horizontal approaches along the footprint's major
+/// axis from both ends, the fingers around the last finger_depth_m less the palm clearance,
+/// the closing line at half the object's height: a round object lying down is widest there
+/// (the seen points' centroid lies above it, on the side facing the camera), a box anywhere.
+void endCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
+                   const FusedParams& p, std::vector<Generated>& out)
+{
+  if (!p.end_grasps)
+    return;
+  const float centroid_height = extent.centroid_height_m();
+  const float lowest_centre = 0.5f * static_cast<float>(gripper.palmWidth()) +
+                              static_cast<float>(p.gripper_fit.table_clearance_m) + 0.002f;
+  const float centre_height = std::max(0.5f * extent.height_m, lowest_centre);
+  const float palm_clearance = static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f;
+  const float surrounded = static_cast<float>(gripper.finger_depth_m) - palm_clearance;
+  if (surrounded <= 0.0f)
+    return;
+  for (const float sign : { 1.0f, -1.0f })
+  {
+    const Eigen::Vector3f approach = sign * extent.major_axis;
+    const Eigen::Vector3f closing = extent.up.cross(approach).normalized();
+    const float front = extentAlong(*view.cloud, approach).first;
+    // Across all heights of the surrounded end: the camera sees a lying object's top and one
+    // side, so only all of them span its width (the points at the closing line's height are
+    // the near side's alone).
+    float lo = std::numeric_limits<float>::max(), hi = -lo;
+    std::size_t in_fingers = 0;
+    for (const auto& q : view.cloud->points)
+    {
+      const Eigen::Vector3f v = q.getVector3fMap();
+      if (!v.allFinite() || approach.dot(v) > front + surrounded)
+        continue;
+      lo = std::min(lo, closing.dot(v));
+      hi = std::max(hi, closing.dot(v));
+      ++in_fingers;
+    }
+    if (in_fingers < 5 || hi - lo > static_cast<float>(gripper.max_opening_m) - 0.005f)
+      continue;
+    // The far side is unseen: the near edge (the camera's side) is where it was seen, the far
+    // one at least as far as the object is high (a round object lying down is as wide as high).
+    if (!view.sensor_origins.empty())
+    {
+      const bool camera_on_hi = closing.dot(view.sensor_origins.front() - extent.centroid) > 0.0f;
+      const float wide = std::min(extent.height_m, static_cast<float>(gripper.max_opening_m) - 0.005f);
+      if (camera_on_hi)
+        lo = std::min(lo, hi - wide);
+      else
+        hi = std::max(hi, lo + wide);
+    }
+    const double width = static_cast<double>(hi - lo);
+    Eigen::Vector3f centre = extent.centroid + (centre_height - centroid_height) * extent.up;
+    centre += (front - palm_clearance + 0.5f * static_cast<float>(gripper.finger_depth_m) - approach.dot(centre)) * approach;
+    centre += (0.5f * (lo + hi) - closing.dot(centre)) * closing;
+    Generated g;
+    g.source = "side";  // a horizontal approach at the centroid's height, as the side grasps
+    g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
+    g.grasp.width_m = std::max(width, gripper.min_opening_m);
+    out.push_back(g);
+  }
+}
 }  // namespace
 
 std::string FusedParams::validate() const
@@ -213,6 +274,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   std::vector<Generated> generated;
   topDownCandidates(view, extent, gripper, params_, generated);
   sideCandidates(view, extent, gripper, params_, generated);
+  endCandidates(view, extent, gripper, params_, generated);
   if (params_.gripper_fit.enabled && (!generated.empty() || params_.deepen_pooled_max_m > 0.0))
   {
     // Like the planners' hands, ours stay out of the seen points, the unseen part and the table.

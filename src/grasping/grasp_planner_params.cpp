@@ -314,6 +314,7 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   reader.readCount("top_down_directions", p.top_down_directions, 0);
   reader.readCount("side_directions", p.side_directions, 0);
   reader.readNonNegative("side_spread_rad", p.side_spread_rad);
+  reader.read("end_grasps", p.end_grasps);
   reader.readNonNegative("deepen_pooled_max_m", p.deepen_pooled_max_m);
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);
   reader.readCount("max_grasps", p.max_grasps, 1);

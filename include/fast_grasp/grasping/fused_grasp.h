@@ -34,6 +34,13 @@ struct FusedParams
   /// within +-side_spread_rad of the view direction (0 = none).
   std::size_t side_directions = 5;
   double side_spread_rad = 0.8;
+  /// End-on candidates: approach horizontally along the footprint's major axis from each end,
+  /// the palm palm_clearance_m before the end, closing across what the fingers surround at the
+  /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer
+  /// than the opening can only be closed on from above, where a finger_depth_m-long finger
+  /// ends near its equator and it slips out on the lift; from its end the fingers close
+  /// across its diameter.
+  bool end_grasps = false;
   /// The pooled planners, the generated candidates and the features see at most this many
   /// points (every k-th point of a larger view; 0 = all). The planners' cost grows with the
   /// points (C-shape ~21 ms at 10k) while a 5 mm voxel-filtered object at 0.6 m has a few
