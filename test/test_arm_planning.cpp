@@ -130,6 +130,14 @@ TEST(TrajectoryTiming, CornersStopAndBadInputIsRejected)
   TimingLimits zero = limits;
   zero.acceleration_rad_s2.setZero();
   EXPECT_FALSE(timeParameterize(path, zero, traj, &why));
+  // Limits of 1e306 made every segment last ~1e-152 s and the accelerations NaN (fuzzing:
+  // test/fuzz/corpus/trajectory_timing/crash_limits_1e306): no arm's limits, refused.
+  TimingLimits absurd = limits;
+  absurd.velocity_rad_s.setConstant(1e306);
+  absurd.acceleration_rad_s2.setConstant(1e306);
+  EXPECT_FALSE(timeParameterize(path, absurd, traj, &why));
+  EXPECT_NE(why.find("no arm's"), std::string::npos) << why;
+  EXPECT_TRUE(traj.empty());
   // A step count beyond int (a tiny max_step_rad) or a segment whose length overflows was an
   // undefined cast and an unbounded grid (UBSan while fuzzing;
   // test/fuzz/corpus/trajectory_timing/crash_*): refused with a reason.

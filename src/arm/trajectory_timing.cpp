@@ -28,6 +28,14 @@ bool timeParameterize(const std::vector<Eigen::VectorXd>& waypoints, const Timin
   if (!(limits.velocity_rad_s.array() > 0.0).all() || !(limits.acceleration_rad_s2.array() > 0.0).all() ||
       !limits.velocity_rad_s.allFinite() || !limits.acceleration_rad_s2.allFinite() || !(limits.max_step_rad > 0.0))
     return fail(why, "velocity and acceleration limits must be positive and finite");
+  // No arm moves a joint at 1000 rad/s or accelerates it at 1e5 rad/s^2 (a UR5: pi and 15); at
+  // 1e306 the segment times underflow toward 1e-152 s and the accelerations become 0/0 (NaN)
+  // (fuzzing: test/fuzz/corpus/trajectory_timing/crash_limits_1e306).
+  if ((limits.velocity_rad_s.array() > kMaxJointVelocityRadS).any() ||
+      (limits.acceleration_rad_s2.array() > kMaxJointAccelerationRadS2).any())
+    return fail(why, "velocity limits above " + std::to_string(static_cast<int>(kMaxJointVelocityRadS)) +
+                         " rad/s or acceleration limits above " +
+                         std::to_string(static_cast<int>(kMaxJointAccelerationRadS2)) + " rad/s^2 are no arm's");
   // Drop repeated waypoints: a zero-length segment has no direction.
   std::vector<Eigen::VectorXd> path;
   for (const Eigen::VectorXd& q : waypoints)

@@ -17,6 +17,10 @@ struct TrajectoryPoint
   double time_from_start_s = 0.0;
 };
 
+/// Limits above these are refused: no arm's, and they make the timing's arithmetic underflow.
+constexpr double kMaxJointVelocityRadS = 1000.0;
+constexpr double kMaxJointAccelerationRadS2 = 100000.0;
+
 struct TimingLimits
 {
   Eigen::VectorXd velocity_rad_s;      // per joint, > 0 (UR5: pi)
