@@ -174,6 +174,7 @@ TEST(FusedGrasp, PooledMaxGraspsCapsThePlannerOnlyInsideThePool)
   config.fused.planners = { "cshape" };
   config.fused.top_down_directions = 0;
   config.fused.side_directions = 0;
+  config.fused.end_grasps = false;
   config.fused.deepen_pooled_max_m = 0.0;
   config.fused.max_grasps = 200;
   config.fused.pooled_max_grasps = { { "cshape", 2 } };
@@ -234,6 +235,7 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
     FusedParams p = onlyGenerated();
     p.top_down_directions = 0;
     p.side_directions = 0;
+    p.end_grasps = false;
     p.max_grasps = 100;
     p.gripper_fit.palm_clearance_m = 0.005;
     p.gripper_fit.table_clearance_m = 0.006;
@@ -289,6 +291,7 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
   FusedParams p = onlyGenerated();
   p.top_down_directions = 0;
   p.side_directions = 0;
+  p.end_grasps = false;
   p.max_grasps = 100;
   p.gripper_fit.palm_clearance_m = 0.005;
   p.gripper_fit.table_clearance_m = 0.006;
@@ -313,6 +316,14 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
     ends.insert(g.approach().y() > 0.0 ? 1 : -1);
   }
   EXPECT_EQ(ends.size(), 2u);
+  // Standing up, 12 cm tall: higher than the opening, so nothing says how far its hidden back
+  // reaches (an upright cracker box's is 6 cm behind its front, not 12): no end grasps.
+  auto standing = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.5 * length }, { 0.0, 0.0, 1.0 }, radius, length),
+                                        { camera, 0.004, 0.0, 1 });
+  ObjectView upright = synthetic::makeObjectView(standing, camera);
+  upright.has_table_plane = true;
+  upright.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  EXPECT_FALSE(FusedGraspPlanner({}, p).plan(upright, gripper).ok());
 }
 
 TEST(FusedGrasp, GraspsPlannedOnAThinnedViewAreCheckedAgainstTheFullViewsUnseenPart)
@@ -336,6 +347,7 @@ TEST(FusedGrasp, GraspsPlannedOnAThinnedViewAreCheckedAgainstTheFullViewsUnseenP
     FusedParams p = onlyGenerated();
     p.top_down_directions = 0;
     p.side_directions = 0;
+    p.end_grasps = false;
     p.deepen_pooled_max_m = 0.0;
     p.max_pooled_points = max_pooled_points;
     std::vector<std::unique_ptr<GraspPlanner>> planners;

@@ -39,8 +39,9 @@ struct FusedParams
   /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer
   /// than the opening can only be closed on from above, where a finger_depth_m-long finger
   /// ends near its equator and it slips out on the lift; from its end the fingers close
-  /// across its diameter.
-  bool end_grasps = false;
+  /// across its diameter. The hand is checked without the unseen part (its far finger passes
+  /// the hidden side): the width assumes the object as wide as high there.
+  bool end_grasps = true;
   /// The pooled planners, the generated candidates and the features see at most this many
   /// points (every k-th point of a larger view; 0 = all). The planners' cost grows with the
   /// points (C-shape ~21 ms at 10k) while a 5 mm voxel-filtered object at 0.6 m has a few
