@@ -44,6 +44,20 @@ FusedParams onlyGenerated()
   p.planners.clear();
   return p;
 }
+
+/// No pooled planners and no candidates of fused's own (each test turns on what it studies);
+/// the hand check as config/grasp_planners.yaml's fused section has it.
+FusedParams noCandidatesOfItsOwn()
+{
+  FusedParams p = onlyGenerated();
+  p.top_down_directions = 0;
+  p.side_directions = 0;
+  p.end_grasps = false;
+  p.max_grasps = 100;
+  p.gripper_fit.palm_clearance_m = 0.005;
+  p.gripper_fit.table_clearance_m = 0.006;
+  return p;
+}
 }  // namespace
 
 TEST(GraspFeatures, TopDownGraspAcrossTheBoxReadsAsItsGeometry)
@@ -232,13 +246,7 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
   at_top.width_m = 0.05;
 
   const auto pooled_heights = [&](double deepen_m) {
-    FusedParams p = onlyGenerated();
-    p.top_down_directions = 0;
-    p.side_directions = 0;
-    p.end_grasps = false;
-    p.max_grasps = 100;
-    p.gripper_fit.palm_clearance_m = 0.005;
-    p.gripper_fit.table_clearance_m = 0.006;
+    FusedParams p = noCandidatesOfItsOwn();
     p.deepen_pooled_max_m = deepen_m;
     std::vector<std::unique_ptr<GraspPlanner>> planners;
     planners.push_back(std::make_unique<FixedGraspPlanner>(at_top));
@@ -288,13 +296,7 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
   view.has_table_plane = true;
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
-  FusedParams p = onlyGenerated();
-  p.top_down_directions = 0;
-  p.side_directions = 0;
-  p.end_grasps = false;
-  p.max_grasps = 100;
-  p.gripper_fit.palm_clearance_m = 0.005;
-  p.gripper_fit.table_clearance_m = 0.006;
+  FusedParams p = noCandidatesOfItsOwn();
   p.gripper_fit.max_table_tilt_rad = 0.0;
   EXPECT_FALSE(FusedGraspPlanner({}, p).plan(view, gripper).ok());  // off: nothing generated
 
