@@ -284,7 +284,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   endCandidates(view, extent, gripper, params_, generated);
   if (params_.gripper_fit.enabled && (!generated.empty() || params_.deepen_pooled_max_m > 0.0))
   {
-    // Like the planners' hands, ours stay out of the seen points, the unseen part and the table.
+    // Like the planners' hands, ours stay out of the seen points, the unseen part and the table
+    // (end-on grasps out of the first and the last only: Generated::without_unseen).
     const auto hand_check = [&](const GripperFitParams& fit, bool with_unseen = true) {
       GripperVolumeCheck check(gripper, fit);
       check.addSeen(*view.cloud);
@@ -366,7 +367,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   // from it: coarser silhouettes, sparser shadows. A hand that cleared those can still enter
   // the object's hidden back (the cracker box bag at max_pooled_points 500: a concavity grasp's
   // finger 462 samples into the box's back). So when the view was thinned, each grasp returned
-  // is checked once more against the full view's points and its own unseen part.
+  // is checked once more against the full view's points and its own unseen part (end-on
+  // grasps against the points alone, as before: a copy of the check before the unseen part).
   std::optional<GripperVolumeCheck> full_check, full_seen_only_check;
   if (params_.gripper_fit.enabled && view.cloud != full_view.cloud)
   {
