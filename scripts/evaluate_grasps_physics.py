@@ -149,8 +149,10 @@ def plan(grasp_offline, scene_yaml, algorithm, gripper, args, save_object=None):
         cmd += ["--follow-next-view", str(args.follow_next_view)]
     if save_object:
         cmd += ["--save-object", save_object]
-    if getattr(args, "split_touching_objects", False):  # the clutter evaluator's option
+    if getattr(args, "split_touching_objects", False):  # the clutter evaluator's options
         cmd += ["--split-touching-objects"]
+    if getattr(args, "all_objects", False):
+        cmd += ["--all-objects"]
     run = subprocess.run(cmd, capture_output=True, text=True)
     try:
         report = json.loads(run.stdout)

@@ -145,16 +145,16 @@ void expectPlausibleGrasps(const std::vector<Row>& rows, const Box& object)
 const Box kBox{ { 0.47, -0.05, 0.0 }, { 0.53, 0.05, 0.15 } };
 const char* const kBoxViewpoint = "0,0,0.6";
 
-pcl::PointCloud<pcl::PointXYZ> visibleBoxPoints()
+pcl::PointCloud<pcl::PointXYZ> visibleBoxPoints(const Box& box = kBox)
 {
   pcl::PointCloud<pcl::PointXYZ> cloud;
   const double step = 0.002;
-  for (double y = kBox.min.y(); y <= kBox.max.y() + 1e-9; y += step)
+  for (double y = box.min.y(); y <= box.max.y() + 1e-9; y += step)
   {
-    for (double x = kBox.min.x(); x <= kBox.max.x() + 1e-9; x += step)
-      cloud.push_back(pcl::PointXYZ(x, y, kBox.max.z()));
-    for (double z = kBox.min.z() + step; z < kBox.max.z() - 1e-9; z += step)
-      cloud.push_back(pcl::PointXYZ(kBox.min.x(), y, z));
+    for (double x = box.min.x(); x <= box.max.x() + 1e-9; x += step)
+      cloud.push_back(pcl::PointXYZ(x, y, box.max.z()));
+    for (double z = box.min.z() + step; z < box.max.z() - 1e-9; z += step)
+      cloud.push_back(pcl::PointXYZ(box.min.x(), y, z));
   }
   return cloud;
 }
@@ -321,6 +321,63 @@ TEST(GraspOfflineBox, BoxOnTableIsSegmentedAndGrasped)
   }
   EXPECT_NEAR(hi[1] - lo[1], 0.10, 0.01);  // the full width is seen
   EXPECT_GT(lo[2], 0.005);                 // nothing of the table
+}
+
+TEST(GraspOffline, AllObjectsPlansEveryBoxAndPicksByTheChosenRule)
+{
+  // kBox (15 cm tall, 0.5 m out) and a lower box nearer the base (8 cm tall, x 0.32-0.38, y
+  // 0.10-0.16), apart on the table: two clusters. Topmost picks kBox first, nearest_to_base the
+  // low box; every grasp names its object, and the grasps of one object lie on one box.
+  const Box low{ { 0.32, 0.10, 0.0 }, { 0.38, 0.16, 0.08 } };
+  pcl::PointCloud<pcl::PointXYZ> cloud = visibleBoxPoints(kBox);
+  cloud += visibleBoxPoints(low);
+  for (double x = 0.25; x <= 0.8; x += 0.005)
+    for (double y = -0.25; y <= 0.25; y += 0.005)
+    {
+      const bool behind_tall = x > kBox.min.x() - 1e-9 && y > kBox.min.y() - 1e-9 && y < kBox.max.y() + 1e-9;
+      const bool behind_low = x > low.min.x() - 1e-9 && y > low.min.y() - 1e-9 && y < low.max.y() + 1e-9;
+      if (!behind_tall && !behind_low)
+        cloud.push_back(pcl::PointXYZ(x, y, 0.0));
+    }
+  const std::string pcd = writePcd("two_boxes_on_table", cloud);
+  for (const std::string choice : { "topmost", "nearest_to_base" })
+  {
+    YAML::Node params = YAML::LoadFile(generousParams());
+    params["table_grasps"]["object_choice"] = choice;
+    const std::string params_path = ::testing::TempDir() + "/grasp_planners_" + choice + ".yaml";
+    std::ofstream(params_path) << params << "\n";
+    const ToolRun run = runTool("--pcd " + pcd + " --viewpoint " + kBoxViewpoint + " --all-objects --algorithm fused " +
+                                "--gripper robotiq_2f85 --format json --params " + params_path);
+    ASSERT_EQ(run.exit_code, 0) << choice << ": " << run.err;
+    EXPECT_NE(run.out.find("\"object_choice\": \"" + choice + "\""), std::string::npos) << run.out;
+    std::istringstream lines(run.out);
+    std::string line;
+    std::map<int, const Box*> box_of_object;
+    const Box* first = nullptr;
+    int grasps = 0;
+    while (std::getline(lines, line))
+    {
+      if (line.find("\"rank\": ") == std::string::npos)
+        continue;
+      const std::vector<double> object = jsonNumbers(line, "object");
+      const std::vector<double> position = jsonNumbers(line, "position");
+      ASSERT_EQ(object.size(), 1u) << line;
+      ASSERT_EQ(position.size(), 3u) << line;
+      const Eigen::Vector3d centre(position[0], position[1], position[2]);
+      const Box* on = kBox.grown(0.03).contains(centre) ? &kBox : low.grown(0.03).contains(centre) ? &low : nullptr;
+      ASSERT_NE(on, nullptr) << "grasp off both boxes: " << line;
+      const int id = static_cast<int>(object[0]);
+      if (!box_of_object.count(id))
+        box_of_object[id] = on;
+      EXPECT_EQ(box_of_object[id], on) << "object " << id << "'s grasps are on two boxes";
+      if (!first)
+        first = on;
+      ++grasps;
+    }
+    EXPECT_EQ(box_of_object.size(), 2u) << choice << ": both boxes get grasps\n" << run.out;
+    EXPECT_EQ(first, choice == "topmost" ? &kBox : &low) << choice;
+    EXPECT_GE(grasps, 2);
+  }
 }
 
 TEST(GraspOfflineBox, PrincipalAxisClosesAcrossTheBoxWidth)

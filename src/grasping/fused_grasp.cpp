@@ -219,7 +219,9 @@ void endCandidates(const ObjectView& view, const ObjectExtent& extent, const Gri
     centre += (front - palm_clearance + 0.5f * static_cast<float>(gripper.finger_depth_m) - approach.dot(centre)) * approach;
     centre += (0.5f * (lo + hi) - closing.dot(centre)) * closing;
     Generated g;
-    g.source = "side";  // a horizontal approach at mid-height, as the side grasps
+    // its own source: it holds or fails for other reasons than the camera-side grasps (its
+    // fingers close across the length's end, beside the unseen part), and the model ranks it so
+    g.source = "end";
     g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
     g.grasp.width_m = std::max(width, gripper.min_opening_m);
     g.without_unseen = true;
@@ -332,7 +334,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       pool.push_back(std::move(g));
       ++kept;
     }
-    summary << "top_down + side: " << kept << " of " << generated.size() << " fit; ";
+    summary << "top_down + side + end: " << kept << " of " << generated.size() << " fit; ";
   }
   result.candidates_evaluated += generated.size();
 
@@ -380,8 +382,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       table = full_view.table_plane;
       full_check->setTable(full_view.table_plane);
     }
-    if (params_.end_grasps)
-      full_seen_only_check = *full_check;
+    if (std::any_of(pool.begin(), pool.end(), [](const Generated& g) { return g.without_unseen; }))
+      full_seen_only_check = *full_check;  // a copy only when an end-on grasp is pooled
     // Default grid: cells from the full view's own point spacing. (A 5 mm floor on the cell,
     // tried for the benchmark's dense 10 k points, gave no measurable speed-up and a blockier
     // shadow that dropped the tea box's three holding top-down grasps on the training half.)

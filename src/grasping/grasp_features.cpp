@@ -101,7 +101,7 @@ std::pair<Eigen::Vector3f, Eigen::Vector3f> tablePlaneBasis(const Eigen::Vector3
 const std::vector<std::string>& graspFeatureSources()
 {
   static const std::vector<std::string> sources{ "principal_axis", "cshape", "boundary", "concavity", "top_down",
-                                                 "side" };
+                                                 "side", "end" };
   return sources;
 }
 

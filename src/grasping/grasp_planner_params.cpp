@@ -355,6 +355,25 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
+{
+  TableGraspParams p;
+  SectionReader reader(section, "table_grasps");
+  std::string choice = toString(p.object_choice);
+  reader.read("object_choice", choice);
+  if (!parseObjectChoice(choice, p.object_choice))
+    throw std::runtime_error("table_grasps/object_choice: '" + choice + "' is none of best_grasp, topmost, nearest_to_base");
+  reader.readNonNegative("neighbour_clearance_m", p.neighbour_clearance_m);
+  reader.readNonNegative("approach_distance_m", p.approach_distance_m);
+  reader.read("neighbour_unseen_parts", p.neighbour_unseen_parts);
+  reader.readPositive("unseen_extension_m", p.unseen.extension_m);
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("table_grasps: " + problem);
+  return p;
+}
+
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root)
 {
   PlannerInputLimits limits;
@@ -396,6 +415,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.boundary = boundaryParamsFromYaml(root["boundary"]);
       config.concavity = concavityParamsFromYaml(root["concavity"]);
       config.fused = fusedParamsFromYaml(root["fused"]);
+      config.table_grasps = tableGraspParamsFromYaml(root["table_grasps"]);
       setInputLimits(config, plannerInputLimitsFromYaml(root));
     }
   }

@@ -16,6 +16,7 @@
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
+#include "fast_grasp/grasping/table_grasps.h"
 
 #include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
@@ -26,7 +27,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -50,7 +53,7 @@ const char* const kUsage =
     "                   | --scene FILE.yaml [--ycb-dir DIR] [--follow-next-view N]\n"
     "                     [--algorithm principal_axis|cshape|boundary|concavity|fused] [--gripper NAME_OR_FILE]\n"
     "                     [--params FILE] [--format csv|json] [--output FILE] [--max-grasps N]\n"
-    "                     [--save-object FILE.pcd] [--split-touching-objects]\n"
+    "                     [--save-object FILE.pcd] [--split-touching-objects] [--all-objects]\n"
     "  --bag FILE           rosbag with an organised PointCloud2 topic and /tf_static to base_link\n"
     "  --topic T            cloud topic (default /camera/depth_registered/points; without --topic\n"
     "                       a bag that also has /head_camera/depth_registered/points is fused)\n"
@@ -61,6 +64,10 @@ const char* const kUsage =
     "  --already-segmented  the PCD holds the object only: no table fit, no clustering\n"
     "  --split-touching-objects  cut clusters at concave creases so touching objects come out apart\n"
     "                       (demo.launch split_touching_objects:=true; single camera only)\n"
+    "  --all-objects        plan for every object on the table, not only the target cluster: grasps\n"
+    "                       whose hand would touch another object (or its unseen part) are dropped,\n"
+    "                       the objects ordered by table_grasps/object_choice (--params); each grasp\n"
+    "                       names its object, the first object's first grasp is the one to execute\n"
     "  --scene FILE         scene YAML (config/scenes/), rendered from its cameras as render_bag does\n"
     "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
     "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
@@ -72,7 +79,8 @@ const char* const kUsage =
     "  --format F           csv (default) or json\n"
     "  --output FILE        write there instead of stdout\n"
     "  --max-grasps N       write at most N grasps (default: all the planner returns)\n"
-    "  --save-object FILE   also save the segmented object (base_link, with normals) as PCD\n";
+    "  --save-object FILE   also save the segmented object (base_link, with normals) as PCD\n"
+    "                       (--all-objects: the object picked first)\n";
 
 struct Options
 {
@@ -84,6 +92,7 @@ struct Options
   std::optional<Eigen::Vector4f> table_plane;
   bool already_segmented = false;
   bool split_touching_objects = false;  // perception.yaml's split_concave_creases
+  bool all_objects = false;
   std::string scene_path;
   std::string ycb_dir;  // empty: $FAST_GRASP_YCB_DIR
   int follow_next_view = 0;
@@ -157,6 +166,11 @@ Options parseOptions(int argc, char** argv)
       options.split_touching_objects = true;
       continue;
     }
+    if (flag == "--all-objects")
+    {
+      options.all_objects = true;
+      continue;
+    }
     if (flag.rfind("--", 0) != 0)
       throw UsageError("unexpected argument '" + flag + "'");
     if (i + 1 >= argc)
@@ -220,6 +234,8 @@ Options parseOptions(int argc, char** argv)
     throw UsageError("--topic and --frame go with --bag");
   if (options.scene_path.empty() && (!options.ycb_dir.empty() || options.follow_next_view > 0))
     throw UsageError("--ycb-dir and --follow-next-view go with --scene");
+  if (options.all_objects && (options.already_segmented || options.follow_next_view > 0))
+    throw UsageError("--all-objects needs a table to segment and plans one view (no --already-segmented, --follow-next-view)");
   if (!options.pcd_path.empty() && !options.viewpoint)
     throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
   const std::vector<std::string>& algorithms = graspAlgorithmNames();
@@ -365,18 +381,16 @@ GripperModel loadGripper(const std::string& name_or_file)
   }
 }
 
-std::unique_ptr<GraspPlanner> makePlanner(const Options& options)
+GraspPlannerConfig loadPlannerConfig(const Options& options)
 {
-  GraspPlannerConfig config;
   try
   {
-    config = loadGraspPlannerConfig(options.params_path);
+    return loadGraspPlannerConfig(options.params_path);
   }
   catch (const std::exception& e)
   {
     throw FailureError({ "config", "ConfigError", e.what() });
   }
-  return makeGraspPlanner(options.algorithm, config);  // the name was checked in parseOptions
 }
 
 // ---- output --------------------------------------------------------------------------------
@@ -478,6 +492,20 @@ struct Report
   };
   std::optional<ObjectSummary> object;
   std::vector<GraspCandidate> grasps;
+  /// --all-objects: per grasp, the object it is for (index into `objects`), and every object.
+  std::vector<std::size_t> grasp_objects;
+  struct TableObject
+  {
+    std::size_t points = 0;
+    Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+    float top_height_m = 0.0f;
+    std::string status;  // "ok" or the planner's failure
+    std::string message;
+    std::size_t grasps = 0;
+    std::size_t blocked_by_neighbours = 0;
+  };
+  std::vector<TableObject> objects;
+  std::string object_choice;
   /// The planner's suggested camera pose (optical frame, base_link) when it found no grasp.
   std::optional<Eigen::Isometry3d> next_view;
   /// --scene: every view planned, in order (the last one is the report's).
@@ -497,7 +525,8 @@ const char* const kCsvHeader =
 
 void writeCsv(std::ostream& out, const Report& report)
 {
-  out << kCsvHeader << "\n";
+  const bool with_objects = !report.object_choice.empty();  // --all-objects: one more column
+  out << kCsvHeader << (with_objects ? ",object" : "") << "\n";
   for (std::size_t i = 0; i < report.grasps.size(); ++i)
   {
     const GraspCandidate& g = report.grasps[i];
@@ -511,6 +540,8 @@ void writeCsv(std::ostream& out, const Report& report)
     for (const double value : { g.width_m, g.score, g.force_balance_rad, g.xoz_offset_m, g.variance_m,
                                 g.torque_offset_m, g.gravity_offset_m })
       out << "," << csvNumber(value);
+    if (with_objects && i < report.grasp_objects.size())
+      out << "," << report.grasp_objects[i];
     out << "\n";
   }
 }
@@ -539,6 +570,20 @@ void writeJson(std::ostream& out, const Report& report)
     out << "  \"object_centroid\": " << jsonArray(report.object->centroid) << ",\n"
         << "  \"object_min\": " << jsonArray(report.object->min) << ",\n"
         << "  \"object_max\": " << jsonArray(report.object->max) << ",\n";
+  if (!report.object_choice.empty())
+  {
+    out << "  \"object_choice\": " << jsonString(report.object_choice) << ",\n";
+    out << "  \"objects\": [";
+    for (std::size_t i = 0; i < report.objects.size(); ++i)
+    {
+      const Report::TableObject& o = report.objects[i];
+      out << (i ? ",\n" : "\n") << "    {\"object\": " << i << ", \"points\": " << o.points
+          << ", \"centroid\": " << jsonArray(o.centroid) << ", \"top_height_m\": " << jsonNumber(o.top_height_m)
+          << ", \"status\": " << jsonString(o.status) << ", \"message\": " << jsonString(o.message)
+          << ", \"grasps\": " << o.grasps << ", \"blocked_by_neighbours\": " << o.blocked_by_neighbours << "}";
+    }
+    out << (report.objects.empty() ? "],\n" : "\n  ],\n");
+  }
   auto jsonPose = [](const Eigen::Isometry3d& pose) {
     return "{\"position\": " + jsonArray(Eigen::Vector3d(pose.translation())) +
            ", \"quaternion_xyzw\": " + jsonArray(quaternionXyzw(pose)) + "}";
@@ -559,7 +604,10 @@ void writeJson(std::ostream& out, const Report& report)
   for (std::size_t i = 0; i < report.grasps.size(); ++i)
   {
     const GraspCandidate& g = report.grasps[i];
-    out << (i ? ",\n" : "\n") << "    {\"rank\": " << i + 1
+    out << (i ? ",\n" : "\n") << "    {\"rank\": " << i + 1;
+    if (i < report.grasp_objects.size())
+      out << ", \"object\": " << report.grasp_objects[i];
+    out
         << ", \"algorithm\": " << jsonString(g.algorithm.empty() ? report.algorithm : g.algorithm)
         << ", \"position\": " << jsonArray(g.position())
         << ", \"quaternion_xyzw\": " << jsonArray(quaternionXyzw(g))
@@ -611,6 +659,68 @@ bool writeReport(const Options& options, const Report& report)
   return true;
 }
 
+/// --all-objects: every object planned (table_grasps.h), the grasps of all objects written in
+/// pick order, each with its object; the summary and --save-object are the first object's.
+int planAllObjects(const Options& options, const PreparedView& prepared, const GraspPlanner& planner,
+                   const TableGraspParams& params, const GripperModel& gripper, Report& report,
+                   const std::function<int(const Failure&)>& finishFailure)
+{
+  const TableGraspResult table = planTableGrasps(prepared.objects, planner, gripper, params);
+  report.compute_time_s = table.compute_time_s;
+  report.object_choice = toString(params.object_choice);
+  for (const ObjectGrasps& object : table.objects)
+  {
+    Report::TableObject summary;
+    const ObjectView& view = prepared.objects[object.object];
+    summary.points = view.cloud->size();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const auto& p : view.cloud->points)
+      sum += p.getVector3fMap().cast<double>();
+    summary.centroid = (sum / static_cast<double>(std::max<std::size_t>(1, summary.points))).cast<float>();
+    summary.top_height_m = object.top_height_m;
+    summary.status = object.ok() ? "ok" : toString(object.result.failure == GraspFailure::None ? GraspFailure::NoStableGrasp
+                                                                                                : object.result.failure);
+    summary.message = object.result.message;
+    summary.grasps = object.result.grasps.size();
+    summary.blocked_by_neighbours = object.blocked_by_neighbours;
+    report.candidates_evaluated += object.result.candidates_evaluated;
+    report.objects.push_back(summary);
+  }
+  if (!table.ok())
+  {
+    std::string reason = std::to_string(table.objects.size()) + " object(s), none with a grasp";
+    for (const Report::TableObject& o : report.objects)
+      reason += "; " + o.message;
+    return finishFailure({ "planning", "NoStableGrasp", reason });
+  }
+  const ObjectView& first = prepared.objects[table.order.front()];
+  if (!options.object_pcd_path.empty() && pcl::io::savePCDFileBinary(options.object_pcd_path, *first.cloud) != 0)
+    return finishFailure({ "output", "OutputError", "cannot write " + options.object_pcd_path });
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity()), hi = -lo;
+  for (const auto& p : first.cloud->points)
+  {
+    lo = lo.cwiseMin(p.getVector3fMap());
+    hi = hi.cwiseMax(p.getVector3fMap());
+  }
+  report.object = Report::ObjectSummary{ lo, hi, report.objects[table.order.front()].centroid };
+  report.points = first.cloud->size();
+  for (const std::size_t index : table.order)
+    for (const GraspCandidate& g : table.objects[index].result.grasps)
+    {
+      report.grasps.push_back(g);
+      report.grasp_objects.push_back(index);
+    }
+  report.message = std::to_string(table.order.size()) + " of " + std::to_string(table.objects.size()) +
+                   " objects with a grasp, picked by " + report.object_choice + "; first: object " +
+                   std::to_string(table.order.front()) + " (" + table.chosen().result.message + ")";
+  if (options.max_grasps > 0 && report.grasps.size() > options.max_grasps)
+  {
+    report.grasps.resize(options.max_grasps);
+    report.grasp_objects.resize(options.max_grasps);
+  }
+  return writeReport(options, report) ? kExitOk : kExitFailure;
+}
+
 int run(const Options& options)
 {
   Report report;
@@ -635,7 +745,9 @@ int run(const Options& options)
   {
     const GripperModel gripper = loadGripper(options.gripper);
     report.gripper = gripper.name;
-    const std::unique_ptr<GraspPlanner> planner = makePlanner(options);
+    const GraspPlannerConfig config = loadPlannerConfig(options);
+    // the name was checked in parseOptions
+    const std::unique_ptr<GraspPlanner> planner = makeGraspPlanner(options.algorithm, config);
     std::optional<SceneInput> scene;
     std::vector<SensorCloud> clouds;
     Eigen::Isometry3d camera_pose = Eigen::Isometry3d::Identity();
@@ -651,6 +763,7 @@ int run(const Options& options)
     perception.segment_table = !options.already_segmented;
     perception.segmentation.split_concave_creases = options.split_touching_objects;
     perception.table_plane = options.table_plane;
+    perception.all_objects = options.all_objects;
     GraspResult result;
     for (int view = 0;; ++view)
     {
@@ -672,6 +785,9 @@ int run(const Options& options)
       if (prepared.view.has_table_plane)
         report.table_plane = prepared.view.table_plane;
       report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
+      if (options.all_objects)
+        return planAllObjects(options, prepared, *planner, config.table_grasps, gripper, report,
+                              [&](const Failure& f) { return finishFailure(f); });
       // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
       if (!options.object_pcd_path.empty() &&
           pcl::io::savePCDFileBinary(options.object_pcd_path, *prepared.view.cloud) != 0)

@@ -350,6 +350,7 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
   };
 
   std::vector<int> object_indices;
+  std::vector<std::vector<int>> other_clusters;  // all_objects: every cluster but the target
   if (params.segment_table)
   {
     // The concave-crease split orients normals toward one camera; points only a second camera
@@ -362,6 +363,10 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
     if (seg.target_index < 0 || static_cast<std::size_t>(seg.target_index) >= seg.clusters.size())
       return fail(prepared, ViewStage::Segmentation, "NoCluster", "no target cluster chosen");
     object_indices = seg.clusters[static_cast<std::size_t>(seg.target_index)].indices;
+    if (params.all_objects)
+      for (std::size_t c = 0; c < seg.clusters.size(); ++c)
+        if (static_cast<int>(c) != seg.target_index)
+          other_clusters.push_back(seg.clusters[c].indices);
     prepared.view.table_plane = seg.plane;
     prepared.view.has_table_plane = seg.has_plane;
   }
@@ -371,55 +376,53 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
     std::iota(object_indices.begin(), object_indices.end(), 0);
   }
 
-  // The object cloud and, per point, the camera that saw it.
-  CloudXYZ::Ptr object(new CloudXYZ);
-  object->header = merged->header;
-  object->sensor_origin_ = merged->sensor_origin_;
-  object->sensor_orientation_ = merged->sensor_orientation_;
-  std::vector<std::size_t> camera_of_point;
-  if (params.resample_to > 0 && !object_indices.empty())
-  {
-    // Resample to exactly resample_to points: a random subset, or every point plus
-    // jittered copies (0.3 mm, below the sensor noise) when the cloud is smaller.
-    std::vector<int> order = object_indices;
-    std::shuffle(order.begin(), order.end(), rng);
-    std::normal_distribution<float> jitter(0.0f, 0.0003f);
-    object->reserve(params.resample_to);
-    for (std::size_t i = 0; i < params.resample_to; ++i)
+  // One cluster's points with normals, each normal facing the camera that saw its point.
+  auto objectCloud = [&](const std::vector<int>& indices, std::size_t resample_to) -> NormalResult {
+    CloudXYZ::Ptr object(new CloudXYZ);
+    object->header = merged->header;
+    object->sensor_origin_ = merged->sensor_origin_;
+    object->sensor_orientation_ = merged->sensor_orientation_;
+    std::vector<std::size_t> camera_of_point;
+    if (resample_to > 0 && !indices.empty())
     {
-      const auto source = static_cast<std::size_t>(order[i % order.size()]);
-      PointXYZ p = merged->points[source];
-      if (i >= order.size())
+      // Resample to exactly resample_to points: a random subset, or every point plus
+      // jittered copies (0.3 mm, below the sensor noise) when the cloud is smaller.
+      std::vector<int> order = indices;
+      std::shuffle(order.begin(), order.end(), rng);
+      std::normal_distribution<float> jitter(0.0f, 0.0003f);
+      object->reserve(resample_to);
+      for (std::size_t i = 0; i < resample_to; ++i)
       {
-        p.x += jitter(rng);
-        p.y += jitter(rng);
-        p.z += jitter(rng);
+        const auto source = static_cast<std::size_t>(order[i % order.size()]);
+        PointXYZ p = merged->points[source];
+        if (i >= order.size())
+        {
+          p.x += jitter(rng);
+          p.y += jitter(rng);
+          p.z += jitter(rng);
+        }
+        object->push_back(p);
+        camera_of_point.push_back(cameraOf(source));
       }
-      object->push_back(p);
-      camera_of_point.push_back(cameraOf(source));
     }
-  }
-  else
-  {
-    object->reserve(object_indices.size());
-    for (const int i : object_indices)
+    else
     {
-      object->push_back(merged->points[static_cast<std::size_t>(i)]);
-      camera_of_point.push_back(cameraOf(static_cast<std::size_t>(i)));
+      object->reserve(indices.size());
+      for (const int i : indices)
+      {
+        object->push_back(merged->points[static_cast<std::size_t>(i)]);
+        camera_of_point.push_back(cameraOf(static_cast<std::size_t>(i)));
+      }
     }
-  }
 
-  const NormalResult normals = estimateNormals(object, prepared.view.sensor_origins.front(), params.normals);
-  if (!normals.ok || !normals.cloud)
-    return fail(prepared, ViewStage::Normals, "NormalsFailed", normals.reason);
-  CloudNormal::Ptr with_normals = normals.cloud;
-  if (prepared.view.sensor_origins.size() > 1)
-  {
+    NormalResult normals = estimateNormals(object, prepared.view.sensor_origins.front(), params.normals);
+    if (!normals.ok || !normals.cloud || prepared.view.sensor_origins.size() < 2)
+      return normals;
     // Normals are fitted on the fused cloud (better neighbourhoods where the views overlap)
     // and face the first camera; re-orient each toward the camera that saw its point. The
     // output keeps the input order minus the points without a normal, so walk both.
     std::size_t source = 0;
-    for (auto& p : with_normals->points)
+    for (auto& p : normals.cloud->points)
     {
       while (source < object->size() && object->points[source].getVector3fMap() != p.getVector3fMap())
         ++source;
@@ -430,7 +433,13 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
         p.getNormalVector3fMap() *= -1.0f;
       ++source;
     }
-  }
+    return normals;
+  };
+
+  const NormalResult normals = objectCloud(object_indices, params.resample_to);
+  if (!normals.ok || !normals.cloud)
+    return fail(prepared, ViewStage::Normals, "NormalsFailed", normals.reason);
+  CloudNormal::Ptr with_normals = normals.cloud;
 
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   prepared.object_min = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
@@ -458,6 +467,21 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
 
   prepared.view.cloud = with_normals;
   prepared.points = with_normals->size();
+  if (params.all_objects)
+  {
+    // Every other cluster as a view of its own (same cameras and table); one whose normals
+    // fail (too few points) is left out, as the target would have failed.
+    prepared.objects.push_back(prepared.view);
+    for (const std::vector<int>& cluster : other_clusters)
+    {
+      const NormalResult other = objectCloud(cluster, 0);
+      if (!other.ok || !other.cloud)
+        continue;
+      ObjectView view = prepared.view;
+      view.cloud = other.cloud;
+      prepared.objects.push_back(view);
+    }
+  }
   return prepared;
 }
 

@@ -58,6 +58,8 @@ struct ViewPreparationParams
   /// > 0: resample the object to exactly this many points before the normals (benchmarks at a
   /// fixed size): a random subset, or every point plus jittered copies when it has fewer.
   std::size_t resample_to = 0;
+  /// Also prepare every other cluster as an object view (PreparedView::objects).
+  bool all_objects = false;
 };
 
 /// The values config/perception.yaml gives the perception nodelets where they differ from the
@@ -88,6 +90,9 @@ struct PreparedView
   Eigen::Vector3f object_min = Eigen::Vector3f::Zero();
   Eigen::Vector3f object_max = Eigen::Vector3f::Zero();
   Eigen::Vector3f object_centroid = Eigen::Vector3f::Zero();
+  /// all_objects: the target (`view`, first) and every other cluster with normals, each with
+  /// the same sensor origins and table plane; empty otherwise.
+  std::vector<ObjectView> objects;
   bool ok() const { return failed_stage == ViewStage::None; }
 };
 

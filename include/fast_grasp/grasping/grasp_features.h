@@ -43,7 +43,8 @@ std::pair<Eigen::Vector3f, Eigen::Vector3f> tablePlaneBasis(const Eigen::Vector3
 /// The first ones are one-hot sources: from_<planner> for the candidate's planner.
 const std::vector<std::string>& graspFeatureNames();
 
-/// Candidate sources the one-hot features know ("principal_axis", ..., "top_down", "side").
+/// Candidate sources the one-hot features know ("principal_axis", ..., "top_down", "side",
+/// "end" for the fused planner's end-on grasps).
 const std::vector<std::string>& graspFeatureSources();
 
 /// The features of `grasp` (pose already fitted by the gripper-volume check) on `view`.

@@ -8,6 +8,7 @@
 #include "fast_grasp/grasping/cshape_grasp.h"
 #include "fast_grasp/grasping/fused_grasp.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
+#include "fast_grasp/grasping/table_grasps.h"
 
 #include <yaml-cpp/node/node.h>
 
@@ -41,6 +42,11 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section);
 /// grasp_features.h; a missing feature weighs 0). Throws std::runtime_error like the others.
 FusedParams fusedParamsFromYaml(const YAML::Node& section);
 
+/// Reads the `table_grasps:` section (planning for every object of a table:
+/// `object_choice` best_grasp | topmost | nearest_to_base, the neighbour check). Throws like
+/// the others.
+TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section);
+
 /// The top-level `max_object_extent_m` of grasp_planners.yaml (the root map; a missing key keeps
 /// the default). Throws std::runtime_error on a non-positive or unreadable value.
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root);
@@ -53,6 +59,7 @@ struct GraspPlannerConfig
   BoundaryParams boundary;
   ConcavityParams concavity;
   FusedParams fused;
+  TableGraspParams table_grasps;  // used when every object of a table is planned
 };
 
 /// Gives every planner of `config` the same input limits.

@@ -1,0 +1,79 @@
+// Grasps for every object on a table, and which object to pick first (issue 11, beyond the
+// thesis: it grasps one object alone). Each object is planned on its own view by any planner;
+// the hand of each grasp, from its pre-grasp to the grasp, must then stay clear of every OTHER
+// object's seen points and of the space behind them the camera could not see (their unseen
+// parts), since a planner only knows its own object. The object to pick is chosen by an
+// explicit rule. ROS-free.
+#pragma once
+
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/gripper_model.h"
+#include "fast_grasp/grasping/unseen_part.h"
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace fast_grasp
+{
+/// Which object is picked first.
+enum class ObjectChoice
+{
+  BestGrasp,     // the object whose best grasp scores highest (scores of one planner compare)
+  Topmost,       // the highest object first (a pile: taking the top one disturbs the rest least)
+  NearestToBase  // the one nearest the robot base (the base frame's origin): the most reachable
+};
+const char* toString(ObjectChoice choice);
+/// "best_grasp", "topmost" or "nearest_to_base"; false for anything else.
+bool parseObjectChoice(const std::string& text, ObjectChoice& choice);
+
+/// YAML: `table_grasps:` in config/grasp_planners.yaml (docs/parameters/grasping.md).
+struct TableGraspParams
+{
+  ObjectChoice object_choice = ObjectChoice::BestGrasp;
+  /// A neighbour's point (or unseen-part point) nearer than this to the open hand's boxes
+  /// blocks the grasp.
+  double neighbour_clearance_m = 0.005;
+  /// The hand comes in along its approach from this far back (the arm's pre-grasp,
+  /// config/arm.yaml `approach_distance_m`): the boxes are swept over that distance.
+  double approach_distance_m = 0.10;
+  /// Also keep out of the neighbours' unseen parts (what hides behind them may be solid).
+  bool neighbour_unseen_parts = true;
+  UnseenPartParams unseen;
+
+  std::string validate() const;
+};
+
+/// One object's grasps after the neighbour check.
+struct ObjectGrasps
+{
+  std::size_t object = 0;  // index into the views planned
+  GraspResult result;      // the planner's result; grasps that hit a neighbour removed
+  std::size_t blocked_by_neighbours = 0;
+  float top_height_m = 0.0f;      // highest point above the table (the lowest point without one)
+  float base_distance_m = 0.0f;   // centroid's distance from the base frame's origin
+  bool ok() const { return !result.grasps.empty(); }
+};
+
+struct TableGraspResult
+{
+  std::vector<ObjectGrasps> objects;  // one per view, in the views' order
+  /// Objects with a grasp, in the order object_choice picks them (pick order[0] first).
+  std::vector<std::size_t> order;
+  double compute_time_s = 0.0;
+  bool ok() const { return !order.empty(); }
+  const ObjectGrasps& chosen() const { return objects.at(order.at(0)); }
+};
+
+/// Plans every view with `planner`, drops each grasp whose hand (swept from the pre-grasp)
+/// would touch another view's points or unseen part, and orders the objects. Views must share
+/// one frame, sensor origins and table plane (one camera frame segmented into objects).
+TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const GraspPlanner& planner,
+                                 const GripperModel& gripper, const TableGraspParams& params);
+
+/// Whether the open hand at `pose`, swept back `approach_distance_m` along its approach and
+/// grown by `clearance_m`, contains any of `obstacles` (base-frame points).
+bool handSweepHits(const Eigen::Isometry3d& pose, const GripperModel& gripper, const Eigen::Matrix3Xf& obstacles,
+                   double approach_distance_m, double clearance_m);
+
+}  // namespace fast_grasp

@@ -1,0 +1,187 @@
+#include "fast_grasp/grasping/table_grasps.h"
+
+#include "fast_grasp/grasping/gripper_volume.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+namespace fast_grasp
+{
+const char* toString(ObjectChoice choice)
+{
+  switch (choice)
+  {
+    case ObjectChoice::BestGrasp:
+      return "best_grasp";
+    case ObjectChoice::Topmost:
+      return "topmost";
+    case ObjectChoice::NearestToBase:
+      return "nearest_to_base";
+  }
+  return "?";
+}
+
+bool parseObjectChoice(const std::string& text, ObjectChoice& choice)
+{
+  for (const ObjectChoice c : { ObjectChoice::BestGrasp, ObjectChoice::Topmost, ObjectChoice::NearestToBase })
+    if (text == toString(c))
+    {
+      choice = c;
+      return true;
+    }
+  return false;
+}
+
+std::string TableGraspParams::validate() const
+{
+  std::ostringstream why;
+  if (!(neighbour_clearance_m >= 0.0 && neighbour_clearance_m <= 0.1))
+    why << "neighbour_clearance_m must be in [0, 0.1]; ";
+  if (!(approach_distance_m >= 0.0 && approach_distance_m <= 0.5))
+    why << "approach_distance_m must be in [0, 0.5]; ";
+  if (!(unseen.extension_m > 0.0 && unseen.extension_m <= 1.0))
+    why << "unseen extension must be in (0, 1] m; ";
+  return why.str();
+}
+
+bool handSweepHits(const Eigen::Isometry3d& pose, const GripperModel& gripper, const Eigen::Matrix3Xf& obstacles,
+                   double approach_distance_m, double clearance_m)
+{
+  if (obstacles.cols() == 0)
+    return false;
+  std::array<GripperBox, 3> boxes = openGripperBoxes(gripper, gripper.max_opening_m);
+  const Eigen::Vector3f grow = Eigen::Vector3f::Constant(static_cast<float>(clearance_m));
+  for (GripperBox& box : boxes)
+  {
+    box.min -= grow;
+    box.max += grow;
+    box.min.x() -= static_cast<float>(approach_distance_m);  // where the hand was on its way in
+  }
+  const Eigen::Matrix3f to_local = pose.linear().cast<float>().transpose();
+  const Eigen::Vector3f origin = pose.translation().cast<float>();
+  const Eigen::Matrix3Xf local = to_local * (obstacles.colwise() - origin);
+  for (Eigen::Index i = 0; i < local.cols(); ++i)
+    for (const GripperBox& box : boxes)
+      if (box.contains(local.col(i)))
+        return true;
+  return false;
+}
+
+namespace
+{
+/// The finite points of `cloud` as matrix columns.
+template <typename PointT>
+void appendPoints(const pcl::PointCloud<PointT>& cloud, std::vector<Eigen::Vector3f>& out)
+{
+  for (const auto& p : cloud.points)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      out.push_back(p.getVector3fMap());
+}
+}  // namespace
+
+TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const GraspPlanner& planner,
+                                 const GripperModel& gripper, const TableGraspParams& params)
+{
+  const Stopwatch watch;
+  TableGraspResult table;
+  // What each object puts in the other objects' way: its seen points and, optionally, the
+  // space behind them (a neighbour's hidden back is as solid as its front).
+  std::vector<std::vector<Eigen::Vector3f>> obstacles(views.size());
+  for (std::size_t i = 0; i < views.size(); ++i)
+  {
+    if (!views[i].cloud)
+      continue;
+    appendPoints(*views[i].cloud, obstacles[i]);
+    if (params.neighbour_unseen_parts && !views[i].sensor_origins.empty())
+    {
+      std::optional<Eigen::Vector4f> plane;
+      if (views[i].has_table_plane)
+        plane = views[i].table_plane;
+      const UnseenPart unseen = buildUnseenPart(*views[i].cloud, views[i].sensor_origins, params.unseen, plane);
+      if (unseen.ok())
+        appendPoints(unseen.points, obstacles[i]);
+    }
+  }
+
+  for (std::size_t i = 0; i < views.size(); ++i)
+  {
+    ObjectGrasps object;
+    object.object = i;
+    object.result = planner.plan(views[i], gripper);
+    if (views[i].cloud)
+    {
+      // Height above the table (or over the object's own lowest point) and distance from the base.
+      const ObjectView& v = views[i];
+      const Eigen::Vector3f up = v.has_table_plane ? Eigen::Vector3f(v.table_plane.head<3>().normalized())
+                                                   : Eigen::Vector3f(-v.gravity.normalized());
+      const float offset = v.has_table_plane ? v.table_plane(3) / v.table_plane.head<3>().norm() : 0.0f;
+      float top = -std::numeric_limits<float>::max(), bottom = std::numeric_limits<float>::max();
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      std::size_t count = 0;
+      for (const auto& p : v.cloud->points)
+      {
+        const Eigen::Vector3f q = p.getVector3fMap();
+        if (!q.allFinite())
+          continue;
+        top = std::max(top, up.dot(q) + offset);
+        bottom = std::min(bottom, up.dot(q) + offset);
+        sum += q.cast<double>();
+        ++count;
+      }
+      if (count > 0)
+      {
+        object.top_height_m = v.has_table_plane ? top : top - bottom;
+        object.base_distance_m = static_cast<float>((sum / static_cast<double>(count)).norm());
+      }
+    }
+    // The others' obstacles, in one matrix.
+    std::size_t others = 0;
+    for (std::size_t j = 0; j < views.size(); ++j)
+      if (j != i)
+        others += obstacles[j].size();
+    Eigen::Matrix3Xf in_the_way(3, static_cast<Eigen::Index>(others));
+    Eigen::Index column = 0;
+    for (std::size_t j = 0; j < views.size(); ++j)
+      if (j != i)
+        for (const Eigen::Vector3f& p : obstacles[j])
+          in_the_way.col(column++) = p;
+    auto& grasps = object.result.grasps;
+    const auto blocked = std::remove_if(grasps.begin(), grasps.end(), [&](const GraspCandidate& g) {
+      return handSweepHits(g.pose, gripper, in_the_way, params.approach_distance_m, params.neighbour_clearance_m);
+    });
+    object.blocked_by_neighbours = static_cast<std::size_t>(grasps.end() - blocked);
+    grasps.erase(blocked, grasps.end());
+    if (grasps.empty() && object.blocked_by_neighbours > 0)
+    {
+      object.result.failure = GraspFailure::NoStableGrasp;
+      object.result.message += (object.result.message.empty() ? "" : "; ") +
+                               std::to_string(object.blocked_by_neighbours) +
+                               " grasp(s) blocked by neighbouring objects";
+    }
+    table.objects.push_back(std::move(object));
+  }
+
+  for (std::size_t i = 0; i < table.objects.size(); ++i)
+    if (table.objects[i].ok())
+      table.order.push_back(i);
+  const auto& objects = table.objects;
+  std::stable_sort(table.order.begin(), table.order.end(), [&](std::size_t a, std::size_t b) {
+    switch (params.object_choice)
+    {
+      case ObjectChoice::Topmost:
+        return objects[a].top_height_m > objects[b].top_height_m;
+      case ObjectChoice::NearestToBase:
+        return objects[a].base_distance_m < objects[b].base_distance_m;
+      case ObjectChoice::BestGrasp:
+        break;
+    }
+    return objects[a].result.grasps.front().score > objects[b].result.grasps.front().score;
+  });
+  table.compute_time_s = watch.elapsedSeconds();
+  return table;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,197 @@
+// Planning over a table of several objects (grasping/table_grasps.h): grasps are checked
+// against the OTHER objects' points and unseen parts, and the objects are ordered by the rule
+// asked for. The planner is a stub returning hand-placed grasps, so every expectation below
+// follows from the boxes' and the hand's dimensions alone.
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/grasping/table_grasps.h"
+
+#include "synthetic_views.h"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <functional>
+
+namespace fast_grasp
+{
+namespace
+{
+const Eigen::Vector3d kCamera(-0.35, 0.0, 0.45);
+
+/// The points of one rendered table scene on the side of y = `split_y` given by `below`, as an
+/// object view (what segmentation hands over per cluster).
+ObjectView objectOf(const CloudNormal::ConstPtr& scene, double split_y, bool below)
+{
+  CloudNormal::Ptr part(new CloudNormal);
+  for (const auto& p : scene->points)
+    if ((p.y < split_y) == below)
+      part->push_back(p);
+  ObjectView view = synthetic::makeObjectView(part, kCamera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
+/// Returns, for every view, what `grasps_for` gives for it.
+class StubPlanner : public GraspPlanner
+{
+public:
+  explicit StubPlanner(std::function<std::vector<GraspCandidate>(const ObjectView&)> grasps_for)
+    : grasps_for_(std::move(grasps_for))
+  {
+  }
+  GraspResult plan(const ObjectView& view, const GripperModel&) const override
+  {
+    GraspResult result;
+    result.grasps = grasps_for_(view);
+    if (result.grasps.empty())
+      result.failure = GraspFailure::NoStableGrasp;
+    return result;
+  }
+  const char* name() const override { return "stub"; }
+
+private:
+  std::function<std::vector<GraspCandidate>(const ObjectView&)> grasps_for_;
+};
+
+Eigen::Vector3d centroidOf(const ObjectView& view)
+{
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& p : view.cloud->points)
+    sum += p.getVector3fMap().cast<double>();
+  return sum / static_cast<double>(view.cloud->size());
+}
+
+GraspCandidate topDown(const Eigen::Vector3d& at, const Eigen::Vector3d& closing, double score)
+{
+  GraspCandidate g;
+  g.pose = makeGraspPose(at, Eigen::Vector3d(0, 0, -1), closing);
+  g.width_m = 0.04;
+  g.score = score;
+  return g;
+}
+
+}  // namespace
+
+TEST(TableGrasps, AFingerBetweenTwoBoxesThreeCentimetresApartIsBlockedTheOtherClosingIsKept)
+{
+  // Two 4 x 4 x 8 cm boxes, A at y = 0 (y -2..2 cm) and B at y = 7 cm (5..9 cm): 3 cm apart.
+  // A top-down grasp on either, closing along y, puts a finger (the 85 mm opening: 4.25-5.25
+  // cm off the centre) into the other box; closing along x it keeps both fingers (1.1 cm wide
+  // along y) beside its own box, clear of the other.
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, 0.07, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { kCamera, 0.002, 0.0, 1 });
+  const std::vector<ObjectView> views{ objectOf(scene, 0.035, true), objectOf(scene, 0.035, false) };
+  ASSERT_GT(views[0].cloud->size(), 200u);
+  ASSERT_GT(views[1].cloud->size(), 200u);
+  const StubPlanner planner([](const ObjectView& view) {
+    const Eigen::Vector3d c = centroidOf(view);
+    const Eigen::Vector3d at(c.x(), c.y() > 0.035 ? 0.07 : 0.0, 0.06);
+    return std::vector<GraspCandidate>{ topDown(at, Eigen::Vector3d::UnitY(), 0.9),
+                                        topDown(at, Eigen::Vector3d::UnitX(), 0.5) };
+  });
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const TableGraspResult table = planTableGrasps(views, planner, gripper, TableGraspParams{});
+  ASSERT_EQ(table.objects.size(), 2u);
+  for (const ObjectGrasps& object : table.objects)
+  {
+    EXPECT_EQ(object.blocked_by_neighbours, 1u) << "object " << object.object;
+    ASSERT_EQ(object.result.grasps.size(), 1u) << "object " << object.object;
+    EXPECT_NEAR(std::abs(object.result.grasps.front().binormal().x()), 1.0, 1e-9);
+  }
+  EXPECT_EQ(table.order.size(), 2u);
+
+  // Without the neighbour the same grasp is free: the check is about the OTHER object only.
+  const TableGraspResult alone = planTableGrasps({ views[0] }, planner, gripper, TableGraspParams{});
+  EXPECT_EQ(alone.objects.front().result.grasps.size(), 2u);
+  EXPECT_EQ(alone.objects.front().blocked_by_neighbours, 0u);
+}
+
+TEST(TableGrasps, AFingerInANeighboursHiddenBackIsBlockedOnlyWithItsUnseenPart)
+{
+  // N, a 4 cm cube at (0, 6, 2) cm, seen from the camera at x = -35 cm, z = 45 cm: its top and
+  // -x face are seen, its back (x = 2 cm) is not. Rays past its top far edge (x = 2, z = 4 cm)
+  // descend ~1.1 cm per cm of x, so its unseen part reaches (3, 6, 2.9), (4, 6, 1.8), (5, 6,
+  // 0.7) cm. A top-down grasp at (4, 1.25, 3) cm closing along y puts its +y finger at x 2.9-5.1,
+  // y 5.5-6.5, z 1-5 cm: in that shadow, 9 mm behind N's last seen point (x = 2 cm) and 1 cm
+  // above its top (the palm from z = 5 cm). The target T stands far away (y = -15 cm): the
+  // stub planner returns that grasp whatever T looks like.
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.0, 0.06, 0.02 }, { 0.04, 0.04, 0.04 }),
+                                             synthetic::makeBox({ 0.0, -0.15, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { kCamera, 0.002, 0.0, 1 });
+  const std::vector<ObjectView> views{ objectOf(scene, -0.05, true), objectOf(scene, -0.05, false) };
+  ASSERT_GT(views[1].cloud->size(), 100u);
+  const StubPlanner planner([](const ObjectView& view) {
+    if (centroidOf(view).y() > -0.05)
+      return std::vector<GraspCandidate>{};  // N itself: no grasp wanted here
+    return std::vector<GraspCandidate>{ topDown({ 0.04, 0.0125, 0.03 }, Eigen::Vector3d::UnitY(), 0.9) };
+  });
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  TableGraspParams params;
+  params.neighbour_unseen_parts = false;
+  const TableGraspResult seen_only = planTableGrasps(views, planner, gripper, params);
+  EXPECT_EQ(seen_only.objects[0].result.grasps.size(), 1u) << "N's seen points are clear of the hand";
+  params.neighbour_unseen_parts = true;
+  const TableGraspResult with_unseen = planTableGrasps(views, planner, gripper, params);
+  EXPECT_EQ(with_unseen.objects[0].result.grasps.size(), 0u);
+  EXPECT_EQ(with_unseen.objects[0].blocked_by_neighbours, 1u);
+  EXPECT_FALSE(with_unseen.ok());  // N had no grasp of its own
+  EXPECT_NE(with_unseen.objects[0].result.message.find("blocked by neighbouring objects"), std::string::npos);
+}
+
+TEST(TableGrasps, TheObjectChoiceOrdersBestGraspTopmostAndNearest)
+{
+  // A short box near the base (x = 0.3 m) whose grasp scores 0.4, a tall one farther out
+  // (x = 0.6 m) whose grasp scores 0.8; 20 cm apart, so no grasp blocks another.
+  const Eigen::Vector3d camera(0.0, 0.0, 0.7);
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.3, 0.0, 0.03 }, { 0.04, 0.04, 0.06 }),
+                                             synthetic::makeBox({ 0.6, 0.0, 0.06 }, { 0.04, 0.04, 0.12 }) },
+                                           { camera, 0.002, 0.0, 1 });
+  std::vector<ObjectView> views;
+  for (const bool near : { true, false })
+  {
+    CloudNormal::Ptr part(new CloudNormal);
+    for (const auto& p : scene->points)
+      if ((p.x < 0.45f) == near)
+        part->push_back(p);
+    ObjectView view = synthetic::makeObjectView(part, camera);
+    view.has_table_plane = true;
+    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+    views.push_back(view);
+  }
+  const StubPlanner planner([](const ObjectView& view) {
+    const Eigen::Vector3d c = centroidOf(view);
+    return std::vector<GraspCandidate>{ topDown({ c.x(), c.y(), c.z() }, Eigen::Vector3d::UnitY(),
+                                                c.x() < 0.45 ? 0.4 : 0.8) };
+  });
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  TableGraspParams params;
+  params.object_choice = ObjectChoice::BestGrasp;
+  EXPECT_EQ(planTableGrasps(views, planner, gripper, params).order, (std::vector<std::size_t>{ 1, 0 }));
+  params.object_choice = ObjectChoice::Topmost;
+  const TableGraspResult topmost = planTableGrasps(views, planner, gripper, params);
+  EXPECT_EQ(topmost.order, (std::vector<std::size_t>{ 1, 0 }));
+  EXPECT_NEAR(topmost.objects[1].top_height_m, 0.12, 0.003);
+  EXPECT_NEAR(topmost.objects[0].top_height_m, 0.06, 0.003);
+  params.object_choice = ObjectChoice::NearestToBase;
+  EXPECT_EQ(planTableGrasps(views, planner, gripper, params).order, (std::vector<std::size_t>{ 0, 1 }));
+}
+
+TEST(TableGrasps, TheYamlSectionIsReadAndBadValuesAreRefused)
+{
+  const TableGraspParams p = tableGraspParamsFromYaml(
+      YAML::Load("{object_choice: topmost, neighbour_clearance_m: 0.01, approach_distance_m: 0.08, "
+                 "neighbour_unseen_parts: false, unseen_extension_m: 0.05}"));
+  EXPECT_EQ(p.object_choice, ObjectChoice::Topmost);
+  EXPECT_EQ(p.neighbour_clearance_m, 0.01);
+  EXPECT_EQ(p.approach_distance_m, 0.08);
+  EXPECT_FALSE(p.neighbour_unseen_parts);
+  EXPECT_EQ(p.unseen.extension_m, 0.05);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{object_choice: biggest}")), std::runtime_error);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{neighbour_clearance_m: -0.01}")), std::runtime_error);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{approach_distance_m: 3.0}")), std::runtime_error);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{unknown_key: 1}")), std::runtime_error);
+}
+
+}  // namespace fast_grasp
