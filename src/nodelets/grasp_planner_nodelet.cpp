@@ -102,9 +102,18 @@ void GraspPlannerNodelet::onInit()
   private_nh_.param("tf_timeout_s", tf_timeout_s_, 0.5);
   private_nh_.param("max_input_points", max_input_points_, 200000);
   private_nh_.param("max_marker_candidates", max_marker_candidates_, 100);
+  private_nh_.param("all_objects", all_objects_, false);
+  private_nh_.param("normal_k_neighbours", normal_params_.k_neighbours, normal_params_.k_neighbours);
   try
   {
     planner_ = makePlanner(private_nh_);
+    if (all_objects_)
+    {
+      table_params_ = tableGraspParamsFromYaml(private_nh_.hasParam("table_grasps") ? paramAsYaml(private_nh_, "table_grasps")
+                                                                                      : YAML::Node());
+      if (normal_params_.k_neighbours < 3)
+        throw std::runtime_error("normal_k_neighbours must be >= 3");
+    }
   }
   catch (const std::exception& e)
   {
@@ -120,7 +129,10 @@ void GraspPlannerNodelet::onInit()
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
   next_view_pub_ = private_nh_.advertise<geometry_msgs::PoseStamped>("next_view", 2, /*latch=*/true);
   scene_sub_ = nh_.subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
-  cloud_sub_ = nh_.subscribe<InputCloud>("cloud_in", 2, &GraspPlannerNodelet::cloudCallback, this);
+  if (all_objects_)
+    objects_sub_ = nh_.subscribe<ObjectsCloud>("objects_in", 2, &GraspPlannerNodelet::objectsCallback, this);
+  else
+    cloud_sub_ = nh_.subscribe<InputCloud>("cloud_in", 2, &GraspPlannerNodelet::cloudCallback, this);
   NODELET_DEBUG("%s ready: gripper %s (max opening %.3f m)", planner_->name(), gripper_.name.c_str(),
                 gripper_.max_opening_m);
 }
@@ -138,26 +150,37 @@ void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstP
     table_planes_.erase(table_planes_.begin());
 }
 
-std::string GraspPlannerNodelet::lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins)
+bool GraspPlannerNodelet::tablePlaneFor(std::uint64_t stamp_us, Eigen::Vector4f& plane)
+{
+  std::lock_guard<std::mutex> lock(scene_mutex_);
+  if (table_planes_.empty())
+    return false;
+  const auto own = table_planes_.find(stamp_us);
+  plane = own != table_planes_.end() ? own->second : table_planes_.rbegin()->second;
+  return true;
+}
+
+std::string GraspPlannerNodelet::lookUpSensorOrigins(const pcl::PCLHeader& header, const Eigen::Vector4f& sensor_origin,
+                                                     std::vector<Eigen::Vector3f>& origins)
 {
   origins.clear();
-  const ros::Time stamp = pcl_conversions::fromPCL(cloud.header).stamp;
+  const ros::Time stamp = pcl_conversions::fromPCL(header).stamp;
   for (const auto& frame : sensor_frames_)
   {
     try
     {
       const geometry_msgs::TransformStamped t =
-          lookupTransformWallTimeout(*tf_buffer_, cloud.header.frame_id, frame, stamp, tf_timeout_s_);
+          lookupTransformWallTimeout(*tf_buffer_, header.frame_id, frame, stamp, tf_timeout_s_);
       origins.emplace_back(t.transform.translation.x, t.transform.translation.y, t.transform.translation.z);
     }
     catch (const tf2::TransformException& e)
     {
-      return "no transform from sensor frame '" + frame + "' to '" + cloud.header.frame_id + "': " + e.what();
+      return "no transform from sensor frame '" + frame + "' to '" + header.frame_id + "': " + e.what();
     }
   }
   if (origins.empty())
   {
-    const Eigen::Vector3f origin = cloud.sensor_origin_.head<3>();
+    const Eigen::Vector3f origin = sensor_origin.head<3>();
     // A zero origin means nobody upstream set it (pcl_ros serialisation drops it across
     // processes): better to refuse than to orient the object frame from the base.
     if (!origin.allFinite() || origin.isZero())
@@ -195,18 +218,10 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
 
     ObjectView view;
     view.cloud = input;
-    const std::string origin_problem = lookUpSensorOrigins(*cloud, view.sensor_origins);
+    const std::string origin_problem = lookUpSensorOrigins(cloud->header, cloud->sensor_origin_, view.sensor_origins);
     if (!origin_problem.empty())
       return publishFailure("MissingTransform: " + origin_problem);
-    {
-      std::lock_guard<std::mutex> lock(scene_mutex_);
-      const auto own = table_planes_.find(cloud->header.stamp);  // PCL stamps are µs
-      if (own != table_planes_.end() || !table_planes_.empty())
-      {
-        view.has_table_plane = true;
-        view.table_plane = own != table_planes_.end() ? own->second : table_planes_.rbegin()->second;
-      }
-    }
+    view.has_table_plane = tablePlaneFor(cloud->header.stamp, view.table_plane);  // PCL stamps are µs
 
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
@@ -223,6 +238,100 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     else
     {
       status_.warn(statusText(result));
+    }
+  }
+  catch (const std::exception& e)
+  {
+    publishFailure(std::string("InternalError: ") + e.what());
+  }
+}
+
+void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects)
+{
+  if (!planner_)
+  {
+    status_.error("not initialised (see the log)");
+    return;
+  }
+  std_msgs::Header header;
+  if (objects)
+    header = pcl_conversions::fromPCL(objects->header);
+  fast_grasp::GraspArray msg;
+  msg.header = header;
+  auto publishFailure = [&](const std::string& why) {
+    msg.status = why;
+    grasps_pub_.publish(msg);
+    status_.error(why);
+  };
+  try
+  {
+    const CloudCheck check = checkCloud<pcl::PointXYZL>(toStd(objects), static_cast<std::size_t>(max_input_points_));
+    if (!check.ok)
+      return publishFailure("EmptyInput: " + check.reason);
+    if (objects->header.frame_id.empty())
+      return publishFailure("DegenerateInput: cloud has an empty frame_id");
+    ObjectView shared;  // what every object's view has in common
+    const std::string origin_problem = lookUpSensorOrigins(objects->header, objects->sensor_origin_, shared.sensor_origins);
+    if (!origin_problem.empty())
+      return publishFailure("MissingTransform: " + origin_problem);
+    shared.has_table_plane = tablePlaneFor(objects->header.stamp, shared.table_plane);
+
+    // One cloud per label, normals per object (a touching neighbour's points would tilt them).
+    std::map<std::uint32_t, CloudXYZ::Ptr> by_label;
+    for (const auto& p : objects->points)
+    {
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        continue;
+      CloudXYZ::Ptr& cloud = by_label[p.label];
+      if (!cloud)
+        cloud = std::make_shared<CloudXYZ>();
+      cloud->push_back(PointXYZ(p.x, p.y, p.z));
+    }
+    std::vector<ObjectView> views;
+    std::vector<std::uint32_t> labels;
+    for (const auto& [label, cloud] : by_label)
+    {
+      const NormalResult normals = estimateNormals(cloud, shared.sensor_origins.front(), normal_params_);
+      if (!normals.ok || !normals.cloud || normals.cloud->empty())
+        continue;  // too few points for an object: not one to grasp
+      ObjectView view = shared;
+      view.cloud = normals.cloud;
+      views.push_back(view);
+      labels.push_back(label);
+    }
+    if (views.empty())
+      return publishFailure("DegenerateInput: no labelled object has enough points for normals");
+
+    const TableGraspResult table = planTableGrasps(views, *planner_, gripper_, table_params_);
+    msg.compute_time_s = table.compute_time_s;
+    for (const std::size_t index : table.order)
+      for (const GraspCandidate& g : table.objects[index].result.grasps)
+      {
+        fast_grasp::Grasp grasp = toMsg(g);
+        grasp.object_id = labels[index];
+        msg.grasps.push_back(grasp);
+      }
+    std::ostringstream summary;
+    summary << table.order.size() << " of " << views.size() << " objects with a grasp ("
+            << toString(table_params_.object_choice) << ")";
+    if (table.ok())
+    {
+      const ObjectGrasps& first = table.chosen();
+      summary << "; first: object " << labels[first.object] << ", " << first.result.grasps.size() << " grasps, best score "
+              << first.result.grasps.front().score << "; " << msg.grasps.size() << " grasps in " << table.compute_time_s * 1e3
+              << " ms";
+      msg.status = "ok";
+      grasps_pub_.publish(msg);
+      publishMarkers(first.result, header);
+      status_.ok(summary.str());
+    }
+    else
+    {
+      for (const ObjectGrasps& o : table.objects)
+        summary << "; object " << labels[o.object] << ": " << statusText(o.result);
+      msg.status = "NoStableGrasp: " + summary.str();
+      grasps_pub_.publish(msg);
+      status_.warn(msg.status);
     }
   }
   catch (const std::exception& e)

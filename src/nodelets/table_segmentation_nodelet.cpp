@@ -47,6 +47,7 @@ private:
   ros::Publisher scene_pub_;
   ros::Publisher table_pub_;
   ros::Publisher segmented_scene_pub_;
+  ros::Publisher objects_pub_;  // every cluster, labelled (a planner with ~all_objects)
 };
 
 std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
@@ -112,6 +113,7 @@ void TableSegmentationNodelet::advertiseOutputs(ros::NodeHandle& pnh)
   scene_pub_ = advertise<CloudXYZ>(pnh, "scene", kOutputQueueSize);
   table_pub_ = advertise<CloudXYZ>(pnh, "table", kOutputQueueSize);
   segmented_scene_pub_ = advertise<fast_grasp::SegmentedScene>(pnh, "segmented_scene", kOutputQueueSize);
+  objects_pub_ = advertise<pcl::PointCloud<pcl::PointXYZL>>(pnh, "objects", kOutputQueueSize);
 }
 
 void TableSegmentationNodelet::process(const InputConstPtr& msg)
@@ -147,6 +149,8 @@ void TableSegmentationNodelet::process(const InputConstPtr& msg)
     const boost::shared_ptr<CloudXYZ> object = toBoost(result.object);
     object_pub_.publish(object);
     publishSentAddress(object.get());
+    if (objects_pub_.getNumSubscribers() > 0)
+      objects_pub_.publish(toBoost(labelledObjects(*cloud, result)));
   }
   switch (result.failure)
   {

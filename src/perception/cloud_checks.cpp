@@ -54,5 +54,6 @@ CloudCheck checkCloud(const typename pcl::PointCloud<PointT>::ConstPtr& cloud, s
 template CloudCheck checkCloud<pcl::PointXYZ>(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr&, std::size_t);
 template CloudCheck checkCloud<pcl::PointXYZRGB>(const pcl::PointCloud<pcl::PointXYZRGB>::ConstPtr&, std::size_t);
 template CloudCheck checkCloud<pcl::PointNormal>(const pcl::PointCloud<pcl::PointNormal>::ConstPtr&, std::size_t);
+template CloudCheck checkCloud<pcl::PointXYZL>(const pcl::PointCloud<pcl::PointXYZL>::ConstPtr&, std::size_t);
 
 }  // namespace fast_grasp

@@ -421,4 +421,32 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
   return result;
 }
 
+pcl::PointCloud<pcl::PointXYZL>::Ptr labelledObjects(const CloudXYZ& cloud, const TableSegmentationResult& result)
+{
+  auto objects = std::make_shared<pcl::PointCloud<pcl::PointXYZL>>();
+  objects->header = cloud.header;
+  objects->sensor_origin_ = cloud.sensor_origin_;
+  objects->sensor_orientation_ = cloud.sensor_orientation_;
+  if (!result.ok() || result.target_index < 0 || static_cast<std::size_t>(result.target_index) >= result.clusters.size())
+    return objects;
+  std::vector<std::size_t> order{ static_cast<std::size_t>(result.target_index) };
+  for (std::size_t c = 0; c < result.clusters.size(); ++c)
+    if (c != order.front())
+      order.push_back(c);
+  for (std::size_t label = 0; label < order.size(); ++label)
+    for (const int i : result.clusters[order[label]].indices)
+    {
+      if (i < 0 || static_cast<std::size_t>(i) >= cloud.size())
+        continue;
+      pcl::PointXYZL p;
+      p.getVector3fMap() = cloud.points[static_cast<std::size_t>(i)].getVector3fMap();
+      p.label = static_cast<std::uint32_t>(label);
+      objects->push_back(p);
+    }
+  objects->width = static_cast<std::uint32_t>(objects->size());
+  objects->height = 1;
+  objects->is_dense = true;
+  return objects;
+}
+
 }  // namespace fast_grasp

@@ -8,6 +8,8 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/planner_input.h"
+#include "fast_grasp/grasping/table_grasps.h"
+#include "fast_grasp/perception/normal_estimation.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 
 #include <nodelet/nodelet.h>
@@ -29,6 +31,8 @@ class GraspPlannerNodelet : public nodelet::Nodelet
 {
 public:
   using InputCloud = pcl::PointCloud<pcl::PointNormal>;
+  /// ~all_objects input: every object of the frame, labelled (TableSegmentation's ~objects).
+  using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
 
 protected:
   /// Builds the algorithm from the private parameters (called once, in onInit).
@@ -41,10 +45,16 @@ protected:
 private:
   void onInit() override;
   void cloudCallback(const boost::shared_ptr<const InputCloud>& cloud);
+  /// ~all_objects: normals per label, every object planned (table_grasps.h), the grasps of all
+  /// objects published in pick order, each with its object_id.
+  void objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects);
+  /// This frame's table plane (by stamp), else the latest; false when none came yet.
+  bool tablePlaneFor(std::uint64_t stamp_us, Eigen::Vector4f& plane);
   void sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene);
   /// Sensor origins in the cloud's frame: tf look-ups of ~sensor_frames, else the
   /// cloud's own sensor_origin_. Empty string on success, else why not.
-  std::string lookUpSensorOrigins(const InputCloud& cloud, std::vector<Eigen::Vector3f>& origins);
+  std::string lookUpSensorOrigins(const pcl::PCLHeader& header, const Eigen::Vector4f& sensor_origin,
+                                  std::vector<Eigen::Vector3f>& origins);
   void publishMarkers(const GraspResult& result, const std_msgs::Header& header);
   /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
@@ -52,6 +62,7 @@ private:
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
   ros::Subscriber cloud_sub_;
+  ros::Subscriber objects_sub_;
   ros::Subscriber scene_sub_;
   ros::Publisher grasps_pub_;
   ros::Publisher markers_pub_;
@@ -62,6 +73,9 @@ private:
 
   std::unique_ptr<GraspPlanner> planner_;
   GripperModel gripper_;
+  bool all_objects_ = false;
+  TableGraspParams table_params_;
+  NormalParams normal_params_;
   std::vector<std::string> sensor_frames_;
   double tf_timeout_s_ = 0.5;
   int max_input_points_ = 200000;

@@ -107,4 +107,10 @@ struct TableSegmentationResult
 /// computed so far, e.g. the plane when only the clustering failed).
 TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const TableSegmentationParams& params);
 
+/// Every cluster of `result` (segmented from `cloud`) in one cloud, each point labelled with its
+/// object: the target 0, the other clusters 1, 2, ... in `result.clusters` order. Header and
+/// sensor pose are the input's. Empty unless result.ok(). What the planners need to grasp every
+/// object on the table (grasping/table_grasps.h), published by TableSegmentation as ~objects.
+pcl::PointCloud<pcl::PointXYZL>::Ptr labelledObjects(const CloudXYZ& cloud, const TableSegmentationResult& result);
+
 }  // namespace fast_grasp
