@@ -7,7 +7,9 @@ played before the whole chain is connected is lost, and a one- or two-frame bag 
 nothing left to test. So the bag starts paused and is resumed only when (1) every one of the
 test's subscribers is connected to its publisher and (2) the master lists a subscriber for
 each of `bag_topics` (default: for at least one data topic the player advertises; a bag may
-hold a second camera nobody listens to).
+hold a second camera nobody listens to) and (3) each of `other_listeners` has a subscriber other
+than the test itself: a pipeline stage the test does not feed (the arm planner listening to a
+grasp planner's ~grasps) that connects after the first frame misses it.
 """
 import time
 
@@ -28,7 +30,14 @@ def _unheard_bag_topics(player):
     return played, [topic for topic in played if topic not in listened]
 
 
-def resume_when_listening(subscribers, pause_service="/bag_player/pause_playback", bag_topics=None, timeout_s=60.0):
+def _without_other_listener(topics):
+    _, subscribers, _ = rosgraph.Master(rospy.get_name()).getSystemState()
+    others = {topic for topic, nodes in subscribers if [n for n in nodes if n != rospy.get_name()]}
+    return [t for t in topics if t not in others]
+
+
+def resume_when_listening(subscribers, pause_service="/bag_player/pause_playback", bag_topics=None, timeout_s=60.0,
+                          other_listeners=()):
     """Waits (wall time) for the conditions above, then resumes the player; raises RuntimeError
     naming what never connected."""
     player = pause_service.rsplit("/", 1)[0] or "/"
@@ -41,12 +50,13 @@ def resume_when_listening(subscribers, pause_service="/bag_player/pause_playback
             heard = not [t for t in bag_topics if t in unheard or t not in played]
         else:
             heard = len(unheard) < len(played)
-        if not unconnected and heard:
+        lonely = _without_other_listener(other_listeners)
+        if not unconnected and heard and not lonely:
             break
         if time.monotonic() > deadline:
             raise RuntimeError("not started after %.0f s: test subscribers without a publisher %s; topics played %s, "
-                               "needed %s, without a subscriber %s" % (timeout_s, unconnected, played,
-                                                                       bag_topics or "any", unheard))
+                               "needed %s, without a subscriber %s; without another listener %s"
+                               % (timeout_s, unconnected, played, bag_topics or "any", unheard, lonely))
         time.sleep(0.05)
     # Registered with the master is not yet connected: give the last TCP handshakes a moment.
     time.sleep(0.5)

@@ -102,7 +102,12 @@ class GraspPipelineTest(unittest.TestCase):
         # A bag played with --pause (~pause_service) starts only when all of the above listen.
         pause_service = rospy.get_param("~pause_service", "")
         if pause_service:
-            bag_start.resume_when_listening(subscribers, pause_service, rospy.get_param("~bag_topics", None))
+            # The arm planner must hear the grasps of the FIRST frame too (loaded, it connected
+            # late and planned only the second frame, which may have no reachable grasp).
+            arm_inputs = (["/%s/grasps" % cls.arm_grasps_from, "/table_segmentation/scene"]
+                          if cls.check_trajectory and cls.arm_grasps_from else [])
+            bag_start.resume_when_listening(subscribers, pause_service, rospy.get_param("~bag_topics", None),
+                                            other_listeners=arm_inputs)
         end = time.monotonic() + cls.timeout_s
         while time.monotonic() < end and not rospy.is_shutdown():
             with cls.lock:
