@@ -428,6 +428,43 @@ TEST(Jaco, JointNearestNeighborsFindWhatTheSpaceDistanceFinds)
     space->freeState(s);
 }
 
+TEST(RobotConfig, BodyFramesPlaceLinksAndShapesLikeTheChainWalk)
+{
+  // Collision checking places its shapes from the body frames (one product per moving joint);
+  // they must land where the segment-by-segment walk (linkPoses) puts their links.
+  for (const std::string robot : { "ur5", "lwr4", "jaco" })
+  {
+    const RobotCollision collision = makeRobotCollision(robotParams(robot));
+    const ArmKinematics& kin = collision.kinematics();
+    std::mt19937 rng(11);
+    std::vector<Eigen::Isometry3d> links, bodies, shapes;
+    for (int n = 0; n < 100; ++n)
+    {
+      const Eigen::VectorXd q = kin.randomConfiguration(rng);
+      kin.linkPoses(q, links);
+      kin.bodyFrames(q, bodies);
+      ASSERT_EQ(bodies.size(), kin.dof() + 1) << robot;
+      EXPECT_TRUE(bodies[0].isApprox(Eigen::Isometry3d::Identity())) << robot;
+      for (std::size_t l = 0; l < links.size(); ++l)
+      {
+        const Eigen::Isometry3d placed =
+            bodies[static_cast<std::size_t>(kin.movingJointsBefore(l))] * kin.linkInBodyFrame(l);
+        EXPECT_LT((placed.matrix() - links[l].matrix()).cwiseAbs().maxCoeff(), 1e-12) << robot << " link " << l;
+      }
+      collision.shapePoses(q, shapes);
+      ASSERT_EQ(shapes.size(), collision.shapes().size());
+      for (std::size_t i = 0; i < shapes.size(); ++i)
+      {
+        const RobotShape& shape = collision.shapes()[i];
+        const Eigen::Isometry3d expected = links[shape.chain_link] * shape.offset;
+        EXPECT_LT((shapes[i].matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-12) << robot << " " << shape.link;
+      }
+    }
+    kin.bodyFrames(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kin.dof() + 1)), bodies);
+    EXPECT_FALSE(bodies.back().matrix().allFinite()) << robot << ": a q of the wrong size gives NaN";
+  }
+}
+
 TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
 {
   const GraspExecutionParams p = robotParams("");

@@ -32,7 +32,10 @@ struct RobotCollision::Geometry
 {
   std::vector<CollisionGeometryPtr> shapes;  // padded FCL shapes, one per RobotShape
   std::vector<ConvexShape> convex;           // the same padded shapes, for the culling tests
-  std::vector<Eigen::Matrix3d> offset_rotation;  // RobotShape::offset's rotation, contiguous
+  // Each shape's pose in its body frame (ArmKinematics::bodyFrames): linkInBodyFrame * offset,
+  // rotation and translation apart (contiguous 3 x 3 products, see shapePoses).
+  std::vector<Eigen::Matrix3d> in_body_rotation;
+  std::vector<Eigen::Vector3d> in_body_translation;
 };
 
 struct RobotCollision::Scene
@@ -431,7 +434,9 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
     const auto g = makeGeometry(s, link_padding_m_);
     geometry->shapes.push_back(g.first);
     geometry->convex.push_back(g.second);
-    geometry->offset_rotation.push_back(s.offset.linear());
+    const Eigen::Isometry3d in_body = kinematics_.linkInBodyFrame(s.chain_link) * s.offset;
+    geometry->in_body_rotation.push_back(in_body.linear());
+    geometry->in_body_translation.push_back(in_body.translation());
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -568,20 +573,21 @@ void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Iso
 {
   // Per-thread scratch: the planners call this for every checked state, and a heap
   // allocation per call showed up in the profile. Still thread-safe (one buffer per thread).
-  thread_local std::vector<Eigen::Isometry3d> links;
-  kinematics_.linkPoses(q, links);
+  // Body frames, not link poses: one product per moving joint instead of two per segment
+  // (FK and shape placement were half of a validity check on the LWR).
+  thread_local std::vector<Eigen::Isometry3d> bodies;
+  kinematics_.bodyFrames(q, bodies);
   poses.resize(shapes_.size());
   for (std::size_t i = 0; i < shapes_.size(); ++i)
   {
-    // links * offset on contiguous 3 x 3 copies: Eigen inlines that product, not the one
+    // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one
     // of an Isometry3d's blocks (this runs for every state a planner checks).
-    const Eigen::Isometry3d& link = links[shapes_[i].chain_link];
-    const Eigen::Matrix3d link_rotation = link.linear();
-    const Eigen::Matrix3d& offset_rotation = geometry_->offset_rotation[i];
+    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(shapes_[i].body)];
+    const Eigen::Matrix3d body_rotation = body.linear();
     Eigen::Matrix3d rotation;
-    rotation.noalias() = link_rotation * offset_rotation;
-    Eigen::Vector3d translation = link.translation();
-    translation.noalias() += link_rotation * shapes_[i].offset.translation();
+    rotation.noalias() = body_rotation * geometry_->in_body_rotation[i];
+    Eigen::Vector3d translation = body.translation();
+    translation.noalias() += body_rotation * geometry_->in_body_translation[i];
     poses[i].linear() = rotation;
     poses[i].translation() = translation;
     poses[i].makeAffine();
