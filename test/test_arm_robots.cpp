@@ -377,6 +377,10 @@ TEST(Jaco, JointNearestNeighborsFindWhatTheSpaceDistanceFinds)
       q[j] = *space->getValueAddressAtIndex(s, static_cast<unsigned>(j));
   };
   JointNearestNeighbors<const ompl::base::State*> nn(continuous, joints_of);
+  // The same past 100 elements: those move into GNAT (the planner's distance function).
+  JointNearestNeighbors<const ompl::base::State*> handed_over(continuous, joints_of, 100);
+  handed_over.setDistanceFunction(
+      [&space](const ompl::base::State* const& a, const ompl::base::State* const& b) { return space->distance(a, b); });
   const ompl::base::StateSamplerPtr sampler = space->allocDefaultStateSampler();
   std::vector<ompl::base::State*> states;
   for (int i = 0; i < 500; ++i)
@@ -384,8 +388,12 @@ TEST(Jaco, JointNearestNeighborsFindWhatTheSpaceDistanceFinds)
     states.push_back(space->allocState());
     sampler->sampleUniform(states.back());
     nn.add(states.back());
+    handed_over.add(states.back());
+    EXPECT_EQ(handed_over.usesGnat(), i + 1 >= 100) << i;
   }
   ASSERT_EQ(nn.size(), states.size());
+  ASSERT_EQ(handed_over.size(), states.size());
+  EXPECT_FALSE(nn.usesGnat());
   ompl::base::State* query = space->allocState();
   int wrapped_wins = 0;  // queries whose nearest state is nearer the short way round
   for (int k = 0; k < 200; ++k)
@@ -396,6 +404,7 @@ TEST(Jaco, JointNearestNeighborsFindWhatTheSpaceDistanceFinds)
       d.push_back(space->distance(query, s));
     const std::size_t best = static_cast<std::size_t>(std::min_element(d.begin(), d.end()) - d.begin());
     EXPECT_EQ(nn.nearest(query), states[best]) << k;
+    EXPECT_EQ(handed_over.nearest(query), states[best]) << k;
     std::vector<double> qa(dof), qb(dof);
     joints_of(query, qa.data());
     joints_of(states[best], qb.data());

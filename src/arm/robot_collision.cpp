@@ -569,6 +569,34 @@ std::vector<Eigen::Vector3d> RobotCollision::occupiedVoxelCentres(bool target) c
   return centres;
 }
 
+namespace
+{
+/// World poses of the shapes from the body frames. Apart from shapePoses(), and given the
+/// frames' data pointer (not the vector, whose address GCC would propagate into here), so
+/// that its loop reads them through a plain pointer: on the thread-local vector GCC repeats
+/// the thread-local lookup (__tls_get_addr) at every iteration (15 calls per UR5 check,
+/// callgrind).
+void placeShapes(const std::vector<RobotShape>& shapes, const RobotCollision::Geometry& geometry,
+                 const Eigen::Isometry3d* bodies, std::vector<Eigen::Isometry3d>& poses)
+{
+  poses.resize(shapes.size());
+  for (std::size_t i = 0; i < shapes.size(); ++i)
+  {
+    // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one
+    // of an Isometry3d's blocks (this runs for every state a planner checks).
+    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(shapes[i].body)];
+    const Eigen::Matrix3d body_rotation = body.linear();
+    Eigen::Matrix3d rotation;
+    rotation.noalias() = body_rotation * geometry.in_body_rotation[i];
+    Eigen::Vector3d translation = body.translation();
+    translation.noalias() += body_rotation * geometry.in_body_translation[i];
+    poses[i].linear() = rotation;
+    poses[i].translation() = translation;
+    poses[i].makeAffine();
+  }
+}
+}  // namespace
+
 void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
 {
   // Per-thread scratch: the planners call this for every checked state, and a heap
@@ -577,21 +605,7 @@ void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Iso
   // (FK and shape placement were half of a validity check on the LWR).
   thread_local std::vector<Eigen::Isometry3d> bodies;
   kinematics_.bodyFrames(q, bodies);
-  poses.resize(shapes_.size());
-  for (std::size_t i = 0; i < shapes_.size(); ++i)
-  {
-    // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one
-    // of an Isometry3d's blocks (this runs for every state a planner checks).
-    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(shapes_[i].body)];
-    const Eigen::Matrix3d body_rotation = body.linear();
-    Eigen::Matrix3d rotation;
-    rotation.noalias() = body_rotation * geometry_->in_body_rotation[i];
-    Eigen::Vector3d translation = body.translation();
-    translation.noalias() += body_rotation * geometry_->in_body_translation[i];
-    poses[i].linear() = rotation;
-    poses[i].translation() = translation;
-    poses[i].makeAffine();
-  }
+  placeShapes(shapes_, *geometry_, bodies.data(), poses);
 }
 
 pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::PointCloud<pcl::PointXYZ>& cloud,
@@ -665,6 +679,13 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
   }
   thread_local std::vector<Eigen::Isometry3d> poses;  // per-thread scratch, see shapePoses()
   shapePoses(q, poses);
+  return inCollisionAt(poses, options, why);
+}
+
+bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, const CollisionCheckOptions& options,
+                                   std::string* why) const
+{
+  // The shape poses arrive as a parameter, see placeShapes().
   const Scene& scene = *scene_;
   const bool cull = options.conservative_culling;
   // Environment first: with a table most invalid states are caught by one cheap box test.

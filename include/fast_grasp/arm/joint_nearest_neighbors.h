@@ -4,7 +4,9 @@
 // ROS-free; OMPL's NearestNeighbors interface.
 #pragma once
 
+#include <iostream>  // NearestNeighborsGNATNoThreadSafety.h uses std::cout without including it
 #include <ompl/datastructures/NearestNeighbors.h>
+#include <ompl/datastructures/NearestNeighborsGNATNoThreadSafety.h>
 #include <ompl/util/Exception.h>
 
 #include <Eigen/Core>
@@ -12,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <memory>
 #include <numeric>
 #include <utility>
 #include <vector>
@@ -24,7 +27,11 @@ namespace fast_grasp
 /// aside). Why not GNAT: on the LWR's RRTConnect shelf pick (trees of ~600 states) GNAT spent
 /// 40 % of solve() in the distance calls through std::function and the state space's virtual
 /// distance (docs/benchmarks/arms.md, "Speed work"). OMPL's NearestNeighborsLinear makes the
-/// same calls one per state and was slower than GNAT. Not thread-safe (like GNATNoThreadSafety).
+/// same calls one per state and was slower than GNAT. A scan grows with the tree and GNAT
+/// does not (as fast at 16000 uniform 7-D states): from `gnat_from_size` states on, the
+/// elements move into OMPL's GNAT with the distance function the planner set, so a long
+/// search on a hard problem keeps GNAT's cost per query. Not thread-safe (like
+/// GNATNoThreadSafety).
 template <typename T>
 class JointNearestNeighbors : public ompl::NearestNeighbors<T>
 {
@@ -33,24 +40,42 @@ public:
   /// Motion's state).
   using JointsOf = std::function<void(const T&, double* q)>;
 
-  /// continuous[j] marks the joints whose difference wraps at 2 pi.
-  JointNearestNeighbors(std::vector<bool> continuous, JointsOf joints_of)
+  /// continuous[j] marks the joints whose difference wraps at 2 pi. From gnat_from_size
+  /// elements on (once the planner has set the distance function), GNAT answers.
+  JointNearestNeighbors(std::vector<bool> continuous, JointsOf joints_of, std::size_t gnat_from_size = 4096)
     : continuous_(std::move(continuous))
     , joints_of_(std::move(joints_of))
+    , gnat_from_size_(gnat_from_size)
     , joints_(continuous_.size())
     , query_(continuous_.size(), 0.0)
   {
   }
 
+  /// True once the elements have moved into GNAT.
+  bool usesGnat() const { return gnat_ != nullptr; }
+
   bool reportsSortedResults() const override { return true; }
   void clear() override
   {
-    elements_.clear();
-    for (std::vector<double>& column : joints_)
-      column.clear();
+    gnat_.reset();
+    clearScan();
   }
   void add(const T& data) override
   {
+    if (gnat_)
+    {
+      gnat_->add(data);
+      return;
+    }
+    if (elements_.size() + 1 >= gnat_from_size_ && this->distFun_)
+    {
+      gnat_ = std::make_unique<ompl::NearestNeighborsGNATNoThreadSafety<T>>();
+      gnat_->setDistanceFunction(this->distFun_);
+      elements_.push_back(data);
+      gnat_->add(elements_);
+      clearScan();
+      return;
+    }
     joints_of_(data, query_.data());
     for (std::size_t j = 0; j < joints_.size(); ++j)
       joints_[j].push_back(query_[j]);
@@ -58,6 +83,8 @@ public:
   }
   bool remove(const T& data) override
   {
+    if (gnat_)
+      return gnat_->remove(data);
     const auto it = std::find(elements_.begin(), elements_.end(), data);
     if (it == elements_.end())
       return false;
@@ -69,6 +96,8 @@ public:
   }
   T nearest(const T& data) const override
   {
+    if (gnat_)
+      return gnat_->nearest(data);
     if (elements_.empty())
       throw ompl::Exception("JointNearestNeighbors: no elements");
     Eigen::Index best = 0;
@@ -77,6 +106,8 @@ public:
   }
   void nearestK(const T& data, std::size_t k, std::vector<T>& nbh) const override
   {
+    if (gnat_)
+      return gnat_->nearestK(data, k, nbh);
     nbh.clear();
     if (k == 0 || elements_.empty())
       return;
@@ -93,6 +124,8 @@ public:
   }
   void nearestR(const T& data, double radius, std::vector<T>& nbh) const override
   {
+    if (gnat_)
+      return gnat_->nearestR(data, radius, nbh);
     nbh.clear();
     if (elements_.empty())
       return;
@@ -107,8 +140,14 @@ public:
     for (const std::size_t i : within)
       nbh.push_back(elements_[i]);
   }
-  std::size_t size() const override { return elements_.size(); }
-  void list(std::vector<T>& data) const override { data = elements_; }
+  std::size_t size() const override { return gnat_ ? gnat_->size() : elements_.size(); }
+  void list(std::vector<T>& data) const override
+  {
+    if (gnat_)
+      gnat_->list(data);
+    else
+      data = elements_;
+  }
 
   /// The distance this structure orders by, between two joint vectors (for tests).
   double distance(const double* a, const double* b) const
@@ -125,6 +164,13 @@ public:
   }
 
 private:
+  void clearScan()
+  {
+    elements_.clear();
+    for (std::vector<double>& column : joints_)
+      column.clear();
+  }
+
   /// Squared distance from `data` to every element, joint by joint in distance()'s order (no
   /// allocation once the scratch has grown to the tree's size).
   Eigen::Map<const Eigen::ArrayXd> squaredDistances(const T& data) const
@@ -148,6 +194,8 @@ private:
 
   std::vector<bool> continuous_;
   JointsOf joints_of_;
+  std::size_t gnat_from_size_;
+  std::unique_ptr<ompl::NearestNeighborsGNATNoThreadSafety<T>> gnat_;  // null while scanning
   std::vector<std::vector<double>> joints_;  // joints_[j][i]: joint j of element i
   std::vector<T> elements_;
   mutable std::vector<double> query_;    // scratch: the query's joints

@@ -107,6 +107,8 @@ public:
   struct Geometry;
 
 private:
+  bool inCollisionAt(const std::vector<Eigen::Isometry3d>& shape_poses, const CollisionCheckOptions& options,
+                     std::string* why) const;
   bool selfCollision(const std::vector<Eigen::Isometry3d>& shape_poses, bool cull, std::string* why) const;
 
   ArmKinematics kinematics_;
