@@ -38,6 +38,30 @@ struct RobotCollision::Geometry
   std::vector<Eigen::Vector3d> in_body_translation;
 };
 
+/// The shapes' world poses for one check: every centre at once (the bounding-sphere tests
+/// need nothing more, and most pairs end there), a shape's rotation only when a finer test
+/// asks for it (pose()): placing all 13 UR5 shapes fully was a fifth of a check (callgrind).
+struct RobotCollision::ShapeFrames
+{
+  const std::vector<RobotShape>* shapes = nullptr;
+  const Geometry* geometry = nullptr;
+  const Eigen::Isometry3d* bodies = nullptr;  // ArmKinematics::bodyFrames, dof + 1
+  std::vector<Eigen::Isometry3d> poses;       // translation set; rotation where placed
+  std::vector<char> placed;
+
+  void reset(const std::vector<RobotShape>& all, const Geometry& g, const Eigen::Isometry3d* body_frames);
+  const Eigen::Vector3d centre(std::size_t i) const { return poses[i].translation(); }
+  const Eigen::Isometry3d& pose(std::size_t i)
+  {
+    if (!placed[i])
+      place(i);
+    return poses[i];
+  }
+
+private:
+  void place(std::size_t i);
+};
+
 struct RobotCollision::Scene
 {
   struct Box
@@ -569,43 +593,56 @@ std::vector<Eigen::Vector3d> RobotCollision::occupiedVoxelCentres(bool target) c
   return centres;
 }
 
-namespace
+void RobotCollision::ShapeFrames::reset(const std::vector<RobotShape>& all, const Geometry& g,
+                                        const Eigen::Isometry3d* body_frames)
 {
-/// World poses of the shapes from the body frames. Apart from shapePoses(), and given the
-/// frames' data pointer (not the vector, whose address GCC would propagate into here), so
-/// that its loop reads them through a plain pointer: on the thread-local vector GCC repeats
-/// the thread-local lookup (__tls_get_addr) at every iteration (15 calls per UR5 check,
-/// callgrind).
-void placeShapes(const std::vector<RobotShape>& shapes, const RobotCollision::Geometry& geometry,
-                 const Eigen::Isometry3d* bodies, std::vector<Eigen::Isometry3d>& poses)
-{
-  poses.resize(shapes.size());
-  for (std::size_t i = 0; i < shapes.size(); ++i)
+  shapes = &all;
+  geometry = &g;
+  bodies = body_frames;
+  poses.resize(all.size());
+  placed.assign(all.size(), 0);
+  for (std::size_t i = 0; i < all.size(); ++i)
   {
-    // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one
-    // of an Isometry3d's blocks (this runs for every state a planner checks).
-    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(shapes[i].body)];
-    const Eigen::Matrix3d body_rotation = body.linear();
-    Eigen::Matrix3d rotation;
-    rotation.noalias() = body_rotation * geometry.in_body_rotation[i];
+    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(all[i].body)];
     Eigen::Vector3d translation = body.translation();
-    translation.noalias() += body_rotation * geometry.in_body_translation[i];
-    poses[i].linear() = rotation;
+    translation.noalias() += body.linear() * g.in_body_translation[i];
     poses[i].translation() = translation;
-    poses[i].makeAffine();
   }
 }
-}  // namespace
 
-void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
+void RobotCollision::ShapeFrames::place(std::size_t i)
+{
+  // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one of an
+  // Isometry3d's blocks.
+  const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>((*shapes)[i].body)];
+  const Eigen::Matrix3d body_rotation = body.linear();
+  Eigen::Matrix3d rotation;
+  rotation.noalias() = body_rotation * geometry->in_body_rotation[i];
+  poses[i].linear() = rotation;
+  poses[i].makeAffine();
+  placed[i] = 1;
+}
+
+void RobotCollision::shapeFrames(const Eigen::VectorXd& q, ShapeFrames& frames) const
 {
   // Per-thread scratch: the planners call this for every checked state, and a heap
   // allocation per call showed up in the profile. Still thread-safe (one buffer per thread).
   // Body frames, not link poses: one product per moving joint instead of two per segment
-  // (FK and shape placement were half of a validity check on the LWR).
+  // (FK and shape placement were half of a validity check on the LWR). Its data pointer goes
+  // on, not the vector: GCC repeats a thread-local's lookup (__tls_get_addr) at every use in
+  // a loop (15 calls per UR5 check, callgrind).
   thread_local std::vector<Eigen::Isometry3d> bodies;
   kinematics_.bodyFrames(q, bodies);
-  placeShapes(shapes_, *geometry_, bodies.data(), poses);
+  frames.reset(shapes_, *geometry_, bodies.data());
+}
+
+void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
+{
+  ShapeFrames frames;
+  shapeFrames(q, frames);
+  for (std::size_t i = 0; i < shapes_.size(); ++i)
+    frames.pose(i);
+  poses.swap(frames.poses);
 }
 
 pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::PointCloud<pcl::PointXYZ>& cloud,
@@ -635,17 +672,26 @@ pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::Poin
   return out;
 }
 
-bool RobotCollision::selfCollision(const std::vector<Eigen::Isometry3d>& poses, bool cull, std::string* why) const
+bool RobotCollision::selfCollision(ShapeFrames& frames, bool cull, std::string* why) const
 {
   for (const auto& pair : self_pairs_)
   {
     const std::size_t i = pair.first, j = pair.second;
+    if (cull)
+    {
+      // classifyPair's first test, here: most pairs end at it, and the call costs as much.
+      const double reach = geometry_->convex[i].bounding_radius + geometry_->convex[j].bounding_radius;
+      if ((frames.centre(j) - frames.centre(i)).squaredNorm() > reach * reach)
+        continue;
+    }
+    const Eigen::Isometry3d& pose_i = frames.pose(i);
+    const Eigen::Isometry3d& pose_j = frames.pose(j);
     const PairVerdict verdict =
-        cull ? classifyPair(geometry_->convex[i], poses[i], geometry_->convex[j], poses[j]) : PairVerdict::Unknown;
+        cull ? classifyPair(geometry_->convex[i], pose_i, geometry_->convex[j], pose_j) : PairVerdict::Unknown;
     if (verdict == PairVerdict::Apart)
       continue;
     if (verdict == PairVerdict::Touching ||
-        collide(geometry_->shapes[i].get(), poses[i], geometry_->shapes[j].get(), poses[j]))
+        collide(geometry_->shapes[i].get(), pose_i, geometry_->shapes[j].get(), pose_j))
     {
       if (why)
         *why = "self: " + shapes_[i].link + " / " + shapes_[j].link;
@@ -663,9 +709,9 @@ bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why)
       *why = "invalid joint vector";
     return true;
   }
-  thread_local std::vector<Eigen::Isometry3d> poses;
-  shapePoses(q, poses);
-  return selfCollision(poses, true, why);
+  thread_local ShapeFrames frames;
+  shapeFrames(q, frames);
+  return selfCollision(frames, true, why);
 }
 
 bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckOptions& options,
@@ -677,15 +723,14 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       *why = "invalid joint vector";
     return true;
   }
-  thread_local std::vector<Eigen::Isometry3d> poses;  // per-thread scratch, see shapePoses()
-  shapePoses(q, poses);
-  return inCollisionAt(poses, options, why);
+  thread_local ShapeFrames frames;  // per-thread scratch, see shapeFrames()
+  shapeFrames(q, frames);
+  return inCollisionAt(frames, options, why);
 }
 
-bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, const CollisionCheckOptions& options,
-                                   std::string* why) const
+bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOptions& options, std::string* why) const
 {
-  // The shape poses arrive as a parameter, see placeShapes().
+  // The shape frames arrive as a parameter, see shapeFrames().
   const Scene& scene = *scene_;
   const bool cull = options.conservative_culling;
   // Environment first: with a table most invalid states are caught by one cheap box test.
@@ -694,7 +739,7 @@ bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, 
     if (shapes_[i].body == 0)
       continue;  // fixed to the base: the mount may touch the table, and it never moves
     const ConvexShape& convex = geometry_->convex[i];
-    const Eigen::Vector3d& centre = poses[i].translation();
+    const Eigen::Vector3d centre = frames.centre(i);
     for (const Scene::Box& box : scene.boxes)
     {
       PairVerdict verdict = PairVerdict::Unknown;
@@ -704,12 +749,12 @@ bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, 
         // the separating axes.
         const Eigen::Vector3d gap = (centre - box.pose.translation()).cwiseAbs() - box.aabb_half_m;
         verdict = gap.maxCoeff() > convex.bounding_radius ? PairVerdict::Apart :
-                                                            classifyPair(convex, poses[i], box.convex, box.pose);
+                                                            classifyPair(convex, frames.pose(i), box.convex, box.pose);
         if (verdict == PairVerdict::Apart)
           continue;
       }
       if (verdict == PairVerdict::Touching ||
-          collide(geometry_->shapes[i].get(), poses[i], box.geometry.get(), box.pose))
+          collide(geometry_->shapes[i].get(), frames.pose(i), box.geometry.get(), box.pose))
       {
         if (why)
           *why = "box " + box.name + " / " + shapes_[i].link;
@@ -717,7 +762,7 @@ bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, 
       }
     }
   }
-  if (selfCollision(poses, cull, why))
+  if (selfCollision(frames, cull, why))
     return true;
   const bool check_target = scene.target_fcl && !options.ignore_target;
   if (!scene.obstacles_fcl && !check_target)
@@ -728,11 +773,12 @@ bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, 
       continue;
     const fcl::CollisionGeometryd* shape = geometry_->shapes[i].get();
     // The shape's world AABB against the bounds of the OctoMap's leaves.
-    const Eigen::Vector3d half = aabbHalfExtents(geometry_->convex[i], poses[i]);
-    const Eigen::Vector3d& centre = poses[i].translation();
+    const Eigen::Isometry3d& pose = frames.pose(i);
+    const Eigen::Vector3d half = aabbHalfExtents(geometry_->convex[i], pose);
+    const Eigen::Vector3d centre = pose.translation();
     if (scene.obstacles_fcl &&
         (!cull || aabbMayTouchBounds(centre, half, scene.obstacles_bounds.min, scene.obstacles_bounds.max)) &&
-        collide(shape, poses[i], scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
+        collide(shape, pose, scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)
         *why = "octomap / " + shapes_[i].link;
@@ -740,7 +786,7 @@ bool RobotCollision::inCollisionAt(const std::vector<Eigen::Isometry3d>& poses, 
     }
     if (check_target && !(options.allow_finger_target_contact && shapes_[i].finger) &&
         (!cull || aabbMayTouchBounds(centre, half, scene.target_bounds.min, scene.target_bounds.max)) &&
-        collide(shape, poses[i], scene.target_fcl.get(), Eigen::Isometry3d::Identity()))
+        collide(shape, pose, scene.target_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)
         *why = "target / " + shapes_[i].link;
