@@ -33,7 +33,7 @@ struct RobotCollision::Geometry
   std::vector<CollisionGeometryPtr> shapes;  // padded FCL shapes, one per RobotShape
   std::vector<ConvexShape> convex;           // the same padded shapes, for the culling tests
   // Each shape's pose in its body frame (ArmKinematics::bodyFrames): linkInBodyFrame * offset,
-  // rotation and translation apart (contiguous 3 x 3 products, see shapePoses).
+  // rotation and translation apart (contiguous 3 x 3 products, see ShapeFrames::place).
   std::vector<Eigen::Matrix3d> in_body_rotation;
   std::vector<Eigen::Vector3d> in_body_translation;
 };
@@ -45,12 +45,14 @@ struct RobotCollision::ShapeFrames
 {
   const std::vector<RobotShape>* shapes = nullptr;
   const Geometry* geometry = nullptr;
-  const Eigen::Isometry3d* bodies = nullptr;  // ArmKinematics::bodyFrames, dof + 1
+  // ArmKinematics::bodyFrames (dof + 1): the calling thread's scratch in shapeFrames(), valid
+  // until its next call on that thread (one check at a time per thread).
+  const Eigen::Isometry3d* bodies = nullptr;
   std::vector<Eigen::Isometry3d> poses;       // translation set; rotation where placed
   std::vector<char> placed;
 
   void reset(const std::vector<RobotShape>& all, const Geometry& g, const Eigen::Isometry3d* body_frames);
-  const Eigen::Vector3d centre(std::size_t i) const { return poses[i].translation(); }
+  Eigen::Vector3d centre(std::size_t i) const { return poses[i].translation(); }
   const Eigen::Isometry3d& pose(std::size_t i)
   {
     if (!placed[i])
