@@ -3,6 +3,7 @@
 // a known self-collision, and a solved shelf scene per arm.
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/trajectory_timing.h"
 
 #include <ompl/util/RandomNumbers.h>
@@ -11,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -352,6 +354,124 @@ TEST(Jaco, ContinuousJointsTurnTheShortWay)
   EXPECT_NEAR(sols.front()[5], 205.0 * deg, 1e-3);
   EXPECT_NEAR(sols.front()[0], -185.0 * deg, 1e-3);
   EXPECT_TRUE(kin.withinLimits(sols.front()));
+}
+
+TEST(Jaco, JointNearestNeighborsFindWhatTheSpaceDistanceFinds)
+{
+  // RRTConnect's trees (JointNearestNeighbors) must return the states the planner's own
+  // state-space distance ranks nearest, continuous joints (the JACO's 1, 4, 5, 6) included:
+  // brute force over that distance on random states, with ties impossible in practice.
+  const GraspExecutionParams p = robotParams("jaco");
+  const RobotCollision collision = makeRobotCollision(p);
+  const ArmKinematics& kin = collision.kinematics();
+  const ArmMotionPlanner planner(collision);
+  const Eigen::VectorXd home = p.robot.homePose(kin.jointNames());
+  const auto setup = planner.makeSetup(home, { home }, p.motion);
+  const ompl::base::StateSpacePtr& space = setup->getStateSpace();
+  const std::size_t dof = kin.dof();
+  std::vector<bool> continuous(dof);
+  for (std::size_t j = 0; j < dof; ++j)
+    continuous[j] = kin.isContinuous(j);
+  auto joints_of = [&space, dof](const ompl::base::State* const& s, double* q) {
+    for (std::size_t j = 0; j < dof; ++j)
+      q[j] = *space->getValueAddressAtIndex(s, static_cast<unsigned>(j));
+  };
+  JointNearestNeighbors<const ompl::base::State*> nn(continuous, joints_of);
+  // The same past 100 elements: those move into GNAT (the planner's distance function).
+  JointNearestNeighbors<const ompl::base::State*> handed_over(continuous, joints_of, 100);
+  handed_over.setDistanceFunction(
+      [&space](const ompl::base::State* const& a, const ompl::base::State* const& b) { return space->distance(a, b); });
+  const ompl::base::StateSamplerPtr sampler = space->allocDefaultStateSampler();
+  std::vector<ompl::base::State*> states;
+  for (int i = 0; i < 500; ++i)
+  {
+    states.push_back(space->allocState());
+    sampler->sampleUniform(states.back());
+    nn.add(states.back());
+    handed_over.add(states.back());
+    EXPECT_EQ(handed_over.usesGnat(), i + 1 >= 100) << i;
+  }
+  ASSERT_EQ(nn.size(), states.size());
+  ASSERT_EQ(handed_over.size(), states.size());
+  EXPECT_FALSE(nn.usesGnat());
+  ompl::base::State* query = space->allocState();
+  int wrapped_wins = 0;  // queries whose nearest state is nearer the short way round
+  for (int k = 0; k < 200; ++k)
+  {
+    sampler->sampleUniform(query);
+    std::vector<double> d;
+    for (const ompl::base::State* s : states)
+      d.push_back(space->distance(query, s));
+    const std::size_t best = static_cast<std::size_t>(std::min_element(d.begin(), d.end()) - d.begin());
+    EXPECT_EQ(nn.nearest(query), states[best]) << k;
+    EXPECT_EQ(handed_over.nearest(query), states[best]) << k;
+    std::vector<double> qa(dof), qb(dof);
+    joints_of(query, qa.data());
+    joints_of(states[best], qb.data());
+    EXPECT_DOUBLE_EQ(nn.distance(qa.data(), qb.data()), d[best]);
+    double unwrapped = 0.0;
+    for (std::size_t j = 0; j < dof; ++j)
+      unwrapped += (qa[j] - qb[j]) * (qa[j] - qb[j]);
+    wrapped_wins += std::sqrt(unwrapped) > d[best] + 1e-9 ? 1 : 0;
+    std::vector<const ompl::base::State*> five;
+    nn.nearestK(query, 5, five);
+    ASSERT_EQ(five.size(), 5u);
+    std::vector<double> sorted = d;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 0; i < 5; ++i)
+      EXPECT_DOUBLE_EQ(space->distance(query, five[i]), sorted[i]) << k << " " << i;
+    std::vector<const ompl::base::State*> within;
+    nn.nearestR(query, sorted[9], within);
+    EXPECT_EQ(within.size(), 10u);
+  }
+  EXPECT_GT(wrapped_wins, 0);  // the wrap mattered for some queries
+  EXPECT_TRUE(nn.remove(states[3]));
+  EXPECT_FALSE(nn.remove(states[3]));
+  EXPECT_EQ(nn.size(), states.size() - 1);
+  EXPECT_NE(nn.nearest(states[3]), states[3]);
+  nn.clear();
+  EXPECT_EQ(nn.size(), 0u);
+  EXPECT_THROW(nn.nearest(query), ompl::Exception);
+  space->freeState(query);
+  for (ompl::base::State* s : states)
+    space->freeState(s);
+}
+
+TEST(RobotConfig, BodyFramesPlaceLinksAndShapesLikeTheChainWalk)
+{
+  // Collision checking places its shapes from the body frames (one product per moving joint);
+  // they must land where the segment-by-segment walk (linkPoses) puts their links.
+  for (const std::string robot : { "ur5", "lwr4", "jaco" })
+  {
+    const RobotCollision collision = makeRobotCollision(robotParams(robot));
+    const ArmKinematics& kin = collision.kinematics();
+    std::mt19937 rng(11);
+    std::vector<Eigen::Isometry3d> links, bodies, shapes;
+    for (int n = 0; n < 100; ++n)
+    {
+      const Eigen::VectorXd q = kin.randomConfiguration(rng);
+      kin.linkPoses(q, links);
+      kin.bodyFrames(q, bodies);
+      ASSERT_EQ(bodies.size(), kin.dof() + 1) << robot;
+      EXPECT_TRUE(bodies[0].isApprox(Eigen::Isometry3d::Identity())) << robot;
+      for (std::size_t l = 0; l < links.size(); ++l)
+      {
+        const Eigen::Isometry3d placed =
+            bodies[static_cast<std::size_t>(kin.movingJointsBefore(l))] * kin.linkInBodyFrame(l);
+        EXPECT_LT((placed.matrix() - links[l].matrix()).cwiseAbs().maxCoeff(), 1e-12) << robot << " link " << l;
+      }
+      collision.shapePoses(q, shapes);
+      ASSERT_EQ(shapes.size(), collision.shapes().size());
+      for (std::size_t i = 0; i < shapes.size(); ++i)
+      {
+        const RobotShape& shape = collision.shapes()[i];
+        const Eigen::Isometry3d expected = links[shape.chain_link] * shape.offset;
+        EXPECT_LT((shapes[i].matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-12) << robot << " " << shape.link;
+      }
+    }
+    kin.bodyFrames(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(kin.dof() + 1)), bodies);
+    EXPECT_FALSE(bodies.back().matrix().allFinite()) << robot << ": a q of the wrong size gives NaN";
+  }
 }
 
 TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)

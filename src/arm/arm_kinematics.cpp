@@ -106,6 +106,32 @@ struct ArmKinematics::Model
   std::vector<std::string> link_names;  // base_link + one per segment
   std::vector<int> moving_before;        // per link_names entry
   std::vector<bool> continuous;          // per joint
+  // Body frames (bodyFrames): body 0 is base_link, body k + 1 the pre frame of moving joint k
+  // turned by q_k; every link with k + 1 moving joints before it is rigid in it.
+  std::vector<std::size_t> moving_segments;  // per joint: index into segments
+  std::vector<Rigid> joint_in_body;          // per joint: its pre frame in the previous body frame
+  std::vector<Rigid> link_in_body;           // per link_names entry: pose in body moving_before[link]
+
+  /// Calls visit(body, frame) for body 0 (the identity) and each moving joint's body frame:
+  /// one product and one axis rotation per moving joint (walk() spends two products per
+  /// moving segment and one per fixed one).
+  template <typename Visit>
+  void walkBodies(const Eigen::VectorXd& q, Visit&& visit) const
+  {
+    Rigid t;
+    visit(std::size_t(0), t);
+    for (std::size_t k = 0; k < moving_segments.size(); ++k)
+    {
+      const Segment& s = segments[moving_segments[k]];
+      Rigid frame = t * joint_in_body[k];
+      if (s.type == JointType::Revolute)
+        rotate(frame.r, s, q[s.joint_index]);
+      else
+        frame.p.noalias() += frame.r * (s.axis * q[s.joint_index]);
+      t = frame;
+      visit(k + 1, t);
+    }
+  }
 
   /// Walks the chain; calls visit(segment_index, pose_after_segment, pose_before_joint)
   /// (for a fixed segment both are the pose after it).
@@ -237,6 +263,24 @@ ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const s
   }
   if (model->joint_names.empty())
     throw std::runtime_error("ArmKinematics: the chain '" + base_link + "' -> '" + tip_link + "' has no moving joint");
+  {
+    // Fold the fixed segments and each moving segment's post into the next joint's pre frame.
+    Rigid in_body;  // the current chain point in the current body frame
+    model->link_in_body.push_back(in_body);  // base_link
+    for (std::size_t i = 0; i < model->segments.size(); ++i)
+    {
+      const Model::Segment& s = model->segments[i];
+      if (s.type == Model::JointType::Fixed)
+        in_body = in_body * s.pre_post;
+      else
+      {
+        model->moving_segments.push_back(i);
+        model->joint_in_body.push_back(in_body * s.pre);
+        in_body = s.post;
+      }
+      model->link_in_body.push_back(in_body);
+    }
+  }
   kin.model_ = model;
   kin.lower_rad_ = Eigen::Map<Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
   kin.upper_rad_ = Eigen::Map<Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
@@ -340,6 +384,27 @@ void ArmKinematics::linkPoses(const Eigen::VectorXd& q, std::vector<Eigen::Isome
     poses[i + 1].translation() = t.p;
     poses[i + 1].makeAffine();
   });
+}
+
+void ArmKinematics::bodyFrames(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& frames) const
+{
+  frames.resize(dof() + 1);
+  if (q.size() != static_cast<Eigen::Index>(dof()))
+  {
+    for (Eigen::Isometry3d& f : frames)
+      f.matrix().setConstant(std::numeric_limits<double>::quiet_NaN());
+    return;
+  }
+  model_->walkBodies(q, [&frames](std::size_t body, const Rigid& t) {
+    frames[body].linear() = t.r;
+    frames[body].translation() = t.p;
+    frames[body].makeAffine();
+  });
+}
+
+Eigen::Isometry3d ArmKinematics::linkInBodyFrame(std::size_t link_index) const
+{
+  return model_->link_in_body.at(link_index).isometry();
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> ArmKinematics::jacobian(const Eigen::VectorXd& q) const

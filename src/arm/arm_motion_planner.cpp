@@ -1,5 +1,6 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 
+#include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/core/grasp_types.h"
 
 #include <ompl/base/goals/GoalStates.h>
@@ -160,6 +161,7 @@ public:
   }
 
   std::size_t dof() const { return slots_.size(); }
+  bool isContinuous(std::size_t j) const { return slots_[j].continuous; }
   /// Joint values of a state; continuous joints in (-pi, pi].
   void toJoints(const ob::State* state, double* q) const
   {
@@ -381,6 +383,31 @@ private:
   double tolerance_rad_;
 };
 
+/// OMPL's RRTConnect with its two trees in JointNearestNeighbors (exact, the same nearest
+/// states as OMPL's default GNAT, several times cheaper per query at these trees' sizes:
+/// docs/benchmarks/arms.md, "Speed work"). On a space other than ArmStateSpace it is OMPL's.
+class ArmRRTConnect : public og::RRTConnect
+{
+public:
+  explicit ArmRRTConnect(const ob::SpaceInformationPtr& si) : og::RRTConnect(si) {}
+  void setup() override
+  {
+    const auto* arm = dynamic_cast<const ArmStateSpace*>(si_->getStateSpace().get());
+    if (arm)
+    {
+      std::vector<bool> continuous(arm->dof());
+      for (std::size_t j = 0; j < continuous.size(); ++j)
+        continuous[j] = arm->isContinuous(j);
+      auto joints_of = [arm](Motion* const& motion, double* q) { arm->toJoints(motion->state, q); };
+      if (!tStart_)
+        tStart_ = std::make_shared<JointNearestNeighbors<Motion*>>(continuous, joints_of);
+      if (!tGoal_)
+        tGoal_ = std::make_shared<JointNearestNeighbors<Motion*>>(continuous, joints_of);
+    }
+    og::RRTConnect::setup();
+  }
+};
+
 template <typename PlannerT>
 ob::PlannerPtr make(const ob::SpaceInformationPtr& si)
 {
@@ -427,7 +454,7 @@ ob::PlannerPtr ArmMotionPlanner::allocatePlanner(const std::string& name, const 
     { "BiEST", make<og::BiEST> },       { "ProjEST", make<og::ProjEST> },
     { "KPIECE", make<og::KPIECE1> },    { "BKPIECE", make<og::BKPIECE1> },
     { "LBKPIECE", make<og::LBKPIECE1> }, { "RRT", make<og::RRT> },
-    { "RRTConnect", make<og::RRTConnect> }, { "PDST", make<og::PDST> },
+    { "RRTConnect", make<ArmRRTConnect> }, { "PDST", make<og::PDST> },
     { "STRIDE", make<og::STRIDE> },     { "PRM", make<og::PRM> },
     { "LazyPRM", make<og::LazyPRM> },   { "RRTstar", make<og::RRTstar> },
     { "PRMstar", make<og::PRMstar> },   { "LazyPRMstar", make<og::LazyPRMstar> },

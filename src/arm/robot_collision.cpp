@@ -32,7 +32,36 @@ struct RobotCollision::Geometry
 {
   std::vector<CollisionGeometryPtr> shapes;  // padded FCL shapes, one per RobotShape
   std::vector<ConvexShape> convex;           // the same padded shapes, for the culling tests
-  std::vector<Eigen::Matrix3d> offset_rotation;  // RobotShape::offset's rotation, contiguous
+  // Each shape's pose in its body frame (ArmKinematics::bodyFrames): linkInBodyFrame * offset,
+  // rotation and translation apart (contiguous 3 x 3 products, see ShapeFrames::place).
+  std::vector<Eigen::Matrix3d> in_body_rotation;
+  std::vector<Eigen::Vector3d> in_body_translation;
+};
+
+/// The shapes' world poses for one check: every centre at once (the bounding-sphere tests
+/// need nothing more, and most pairs end there), a shape's rotation only when a finer test
+/// asks for it (pose()): placing all 13 UR5 shapes fully was a fifth of a check (callgrind).
+struct RobotCollision::ShapeFrames
+{
+  const std::vector<RobotShape>* shapes = nullptr;
+  const Geometry* geometry = nullptr;
+  // ArmKinematics::bodyFrames (dof + 1): the calling thread's scratch in shapeFrames(), valid
+  // until its next call on that thread (one check at a time per thread).
+  const Eigen::Isometry3d* bodies = nullptr;
+  std::vector<Eigen::Isometry3d> poses;       // translation set; rotation where placed
+  std::vector<char> placed;
+
+  void reset(const std::vector<RobotShape>& all, const Geometry& g, const Eigen::Isometry3d* body_frames);
+  Eigen::Vector3d centre(std::size_t i) const { return poses[i].translation(); }
+  const Eigen::Isometry3d& pose(std::size_t i)
+  {
+    if (!placed[i])
+      place(i);
+    return poses[i];
+  }
+
+private:
+  void place(std::size_t i);
 };
 
 struct RobotCollision::Scene
@@ -431,7 +460,9 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
     const auto g = makeGeometry(s, link_padding_m_);
     geometry->shapes.push_back(g.first);
     geometry->convex.push_back(g.second);
-    geometry->offset_rotation.push_back(s.offset.linear());
+    const Eigen::Isometry3d in_body = kinematics_.linkInBodyFrame(s.chain_link) * s.offset;
+    geometry->in_body_rotation.push_back(in_body.linear());
+    geometry->in_body_translation.push_back(in_body.translation());
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -564,28 +595,56 @@ std::vector<Eigen::Vector3d> RobotCollision::occupiedVoxelCentres(bool target) c
   return centres;
 }
 
-void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
+void RobotCollision::ShapeFrames::reset(const std::vector<RobotShape>& all, const Geometry& g,
+                                        const Eigen::Isometry3d* body_frames)
+{
+  shapes = &all;
+  geometry = &g;
+  bodies = body_frames;
+  poses.resize(all.size());
+  placed.assign(all.size(), 0);
+  for (std::size_t i = 0; i < all.size(); ++i)
+  {
+    const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(all[i].body)];
+    Eigen::Vector3d translation = body.translation();
+    translation.noalias() += body.linear() * g.in_body_translation[i];
+    poses[i].translation() = translation;
+  }
+}
+
+void RobotCollision::ShapeFrames::place(std::size_t i)
+{
+  // body * in_body on contiguous 3 x 3 copies: Eigen inlines that product, not the one of an
+  // Isometry3d's blocks.
+  const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>((*shapes)[i].body)];
+  const Eigen::Matrix3d body_rotation = body.linear();
+  Eigen::Matrix3d rotation;
+  rotation.noalias() = body_rotation * geometry->in_body_rotation[i];
+  poses[i].linear() = rotation;
+  poses[i].makeAffine();
+  placed[i] = 1;
+}
+
+void RobotCollision::shapeFrames(const Eigen::VectorXd& q, ShapeFrames& frames) const
 {
   // Per-thread scratch: the planners call this for every checked state, and a heap
   // allocation per call showed up in the profile. Still thread-safe (one buffer per thread).
-  thread_local std::vector<Eigen::Isometry3d> links;
-  kinematics_.linkPoses(q, links);
-  poses.resize(shapes_.size());
+  // Body frames, not link poses: one product per moving joint instead of two per segment
+  // (FK and shape placement were half of a validity check on the LWR). Its data pointer goes
+  // on, not the vector: GCC repeats a thread-local's lookup (__tls_get_addr) at every use in
+  // a loop (15 calls per UR5 check, callgrind).
+  thread_local std::vector<Eigen::Isometry3d> bodies;
+  kinematics_.bodyFrames(q, bodies);
+  frames.reset(shapes_, *geometry_, bodies.data());
+}
+
+void RobotCollision::shapePoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& poses) const
+{
+  ShapeFrames frames;
+  shapeFrames(q, frames);
   for (std::size_t i = 0; i < shapes_.size(); ++i)
-  {
-    // links * offset on contiguous 3 x 3 copies: Eigen inlines that product, not the one
-    // of an Isometry3d's blocks (this runs for every state a planner checks).
-    const Eigen::Isometry3d& link = links[shapes_[i].chain_link];
-    const Eigen::Matrix3d link_rotation = link.linear();
-    const Eigen::Matrix3d& offset_rotation = geometry_->offset_rotation[i];
-    Eigen::Matrix3d rotation;
-    rotation.noalias() = link_rotation * offset_rotation;
-    Eigen::Vector3d translation = link.translation();
-    translation.noalias() += link_rotation * shapes_[i].offset.translation();
-    poses[i].linear() = rotation;
-    poses[i].translation() = translation;
-    poses[i].makeAffine();
-  }
+    frames.pose(i);
+  poses.swap(frames.poses);
 }
 
 pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::PointCloud<pcl::PointXYZ>& cloud,
@@ -615,17 +674,26 @@ pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::Poin
   return out;
 }
 
-bool RobotCollision::selfCollision(const std::vector<Eigen::Isometry3d>& poses, bool cull, std::string* why) const
+bool RobotCollision::selfCollision(ShapeFrames& frames, bool cull, std::string* why) const
 {
   for (const auto& pair : self_pairs_)
   {
     const std::size_t i = pair.first, j = pair.second;
+    if (cull)
+    {
+      // classifyPair's first test, here: most pairs end at it, and the call costs as much.
+      const double reach = geometry_->convex[i].bounding_radius + geometry_->convex[j].bounding_radius;
+      if ((frames.centre(j) - frames.centre(i)).squaredNorm() > reach * reach)
+        continue;
+    }
+    const Eigen::Isometry3d& pose_i = frames.pose(i);
+    const Eigen::Isometry3d& pose_j = frames.pose(j);
     const PairVerdict verdict =
-        cull ? classifyPair(geometry_->convex[i], poses[i], geometry_->convex[j], poses[j]) : PairVerdict::Unknown;
+        cull ? classifyPair(geometry_->convex[i], pose_i, geometry_->convex[j], pose_j) : PairVerdict::Unknown;
     if (verdict == PairVerdict::Apart)
       continue;
     if (verdict == PairVerdict::Touching ||
-        collide(geometry_->shapes[i].get(), poses[i], geometry_->shapes[j].get(), poses[j]))
+        collide(geometry_->shapes[i].get(), pose_i, geometry_->shapes[j].get(), pose_j))
     {
       if (why)
         *why = "self: " + shapes_[i].link + " / " + shapes_[j].link;
@@ -643,9 +711,9 @@ bool RobotCollision::inSelfCollision(const Eigen::VectorXd& q, std::string* why)
       *why = "invalid joint vector";
     return true;
   }
-  thread_local std::vector<Eigen::Isometry3d> poses;
-  shapePoses(q, poses);
-  return selfCollision(poses, true, why);
+  thread_local ShapeFrames frames;
+  shapeFrames(q, frames);
+  return selfCollision(frames, true, why);
 }
 
 bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckOptions& options,
@@ -657,8 +725,14 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       *why = "invalid joint vector";
     return true;
   }
-  thread_local std::vector<Eigen::Isometry3d> poses;  // per-thread scratch, see shapePoses()
-  shapePoses(q, poses);
+  thread_local ShapeFrames frames;  // per-thread scratch, see shapeFrames()
+  shapeFrames(q, frames);
+  return inCollisionAt(frames, options, why);
+}
+
+bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOptions& options, std::string* why) const
+{
+  // The shape frames arrive as a parameter, see shapeFrames().
   const Scene& scene = *scene_;
   const bool cull = options.conservative_culling;
   // Environment first: with a table most invalid states are caught by one cheap box test.
@@ -667,7 +741,7 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
     if (shapes_[i].body == 0)
       continue;  // fixed to the base: the mount may touch the table, and it never moves
     const ConvexShape& convex = geometry_->convex[i];
-    const Eigen::Vector3d& centre = poses[i].translation();
+    const Eigen::Vector3d centre = frames.centre(i);
     for (const Scene::Box& box : scene.boxes)
     {
       PairVerdict verdict = PairVerdict::Unknown;
@@ -677,12 +751,12 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
         // the separating axes.
         const Eigen::Vector3d gap = (centre - box.pose.translation()).cwiseAbs() - box.aabb_half_m;
         verdict = gap.maxCoeff() > convex.bounding_radius ? PairVerdict::Apart :
-                                                            classifyPair(convex, poses[i], box.convex, box.pose);
+                                                            classifyPair(convex, frames.pose(i), box.convex, box.pose);
         if (verdict == PairVerdict::Apart)
           continue;
       }
       if (verdict == PairVerdict::Touching ||
-          collide(geometry_->shapes[i].get(), poses[i], box.geometry.get(), box.pose))
+          collide(geometry_->shapes[i].get(), frames.pose(i), box.geometry.get(), box.pose))
       {
         if (why)
           *why = "box " + box.name + " / " + shapes_[i].link;
@@ -690,7 +764,7 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       }
     }
   }
-  if (selfCollision(poses, cull, why))
+  if (selfCollision(frames, cull, why))
     return true;
   const bool check_target = scene.target_fcl && !options.ignore_target;
   if (!scene.obstacles_fcl && !check_target)
@@ -701,11 +775,12 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
       continue;
     const fcl::CollisionGeometryd* shape = geometry_->shapes[i].get();
     // The shape's world AABB against the bounds of the OctoMap's leaves.
-    const Eigen::Vector3d half = aabbHalfExtents(geometry_->convex[i], poses[i]);
-    const Eigen::Vector3d& centre = poses[i].translation();
+    const Eigen::Isometry3d& pose = frames.pose(i);
+    const Eigen::Vector3d half = aabbHalfExtents(geometry_->convex[i], pose);
+    const Eigen::Vector3d centre = pose.translation();
     if (scene.obstacles_fcl &&
         (!cull || aabbMayTouchBounds(centre, half, scene.obstacles_bounds.min, scene.obstacles_bounds.max)) &&
-        collide(shape, poses[i], scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
+        collide(shape, pose, scene.obstacles_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)
         *why = "octomap / " + shapes_[i].link;
@@ -713,7 +788,7 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
     }
     if (check_target && !(options.allow_finger_target_contact && shapes_[i].finger) &&
         (!cull || aabbMayTouchBounds(centre, half, scene.target_bounds.min, scene.target_bounds.max)) &&
-        collide(shape, poses[i], scene.target_fcl.get(), Eigen::Isometry3d::Identity()))
+        collide(shape, pose, scene.target_fcl.get(), Eigen::Isometry3d::Identity()))
     {
       if (why)
         *why = "target / " + shapes_[i].link;

@@ -74,6 +74,13 @@ public:
   const std::vector<std::string>& linkNames() const;
   /// Number of moving joints between base_link and link i of linkNames() (0 = fixed to base).
   int movingJointsBefore(std::size_t link_index) const;
+  /// dof() + 1 body frames at q: frame 0 is base_link, frame k the origin frame of the k-th
+  /// moving joint turned by its q. Link i of linkNames() is rigid in frame
+  /// movingJointsBefore(i), at linkInBodyFrame(i): linkPoses = bodyFrames * linkInBodyFrame,
+  /// for one product per moving joint (collision checking places its shapes this way).
+  /// q of the wrong size gives NaN frames.
+  void bodyFrames(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& frames) const;
+  Eigen::Isometry3d linkInBodyFrame(std::size_t link_index) const;
   /// 6 x dof geometric Jacobian at the tip, expressed in base_link (rows: linear, angular).
   Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian(const Eigen::VectorXd& q) const;
 

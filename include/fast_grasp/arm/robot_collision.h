@@ -106,8 +106,12 @@ public:
   struct Scene;  // OctoMaps and FCL geometry; defined in the source
   struct Geometry;
 
+  struct ShapeFrames;  // one check's shape poses, rotations placed on demand; in the source
+
 private:
-  bool selfCollision(const std::vector<Eigen::Isometry3d>& shape_poses, bool cull, std::string* why) const;
+  void shapeFrames(const Eigen::VectorXd& q, ShapeFrames& frames) const;
+  bool inCollisionAt(ShapeFrames& frames, const CollisionCheckOptions& options, std::string* why) const;
+  bool selfCollision(ShapeFrames& frames, bool cull, std::string* why) const;
 
   ArmKinematics kinematics_;
   std::vector<RobotShape> shapes_;
