@@ -3,8 +3,10 @@
 perception and a grasp planner with all_objects:=true. Checks, against the bag's truth file (the
 objects' positions as rendered), that TableSegmentation's ~objects holds one labelled cluster
 per object (label 0 the target), that the planner publishes grasps for every object in one
-GraspArray, and that each grasp lies on the object its object_id names."""
+GraspArray, that each grasp lies on the object its object_id names, and that the arm planner
+(all_objects) plans a trajectory whose executed grasp lies on the object its status names."""
 import os
+import re
 import sys
 import threading
 import time
@@ -15,7 +17,10 @@ import rospy
 import rostest
 import yaml
 from sensor_msgs import point_cloud2
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import String
+from trajectory_msgs.msg import JointTrajectory
 
 from fast_grasp.msg import GraspArray
 
@@ -38,13 +43,22 @@ class AllObjectsPipelineTest(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.labelled = {}  # stamp ns -> {label: N x 3}
         cls.arrays = []
+        cls.arm = {}  # stamp ns -> {"status": str, "executed": PoseStamped, "trajectory": JointTrajectory}
         subscribers = [rospy.Subscriber("/table_segmentation/objects", PointCloud2, cls.on_objects, queue_size=5),
-                       rospy.Subscriber("/all_objects_planner/grasps", GraspArray, cls.on_grasps, queue_size=5)]
-        bag_start.resume_when_listening(subscribers, rospy.get_param("~pause_service"), None)
+                       rospy.Subscriber("/all_objects_planner/grasps", GraspArray, cls.on_grasps, queue_size=5),
+                       rospy.Subscriber("/arm_planner/executed_grasp", PoseStamped, cls.on_executed, queue_size=5),
+                       rospy.Subscriber("/arm_planner/trajectory", JointTrajectory, cls.on_trajectory, queue_size=5)]
+        cls.arm_statuses = []
+        rospy.Subscriber("/arm_planner/status", String, cls.on_arm_status, queue_size=10)
+        # The arm planner must listen to the grasps and the labelled objects before frame 0 plays.
+        bag_start.resume_when_listening(subscribers, rospy.get_param("~pause_service"), None,
+                                        other_listeners=["/all_objects_planner/grasps", "/table_segmentation/objects"])
         end = time.monotonic() + rospy.get_param("~timeout_s", 60.0)
         while time.monotonic() < end and not rospy.is_shutdown():
             with cls.lock:
-                if any(a.grasps and a.header.stamp.to_nsec() in cls.labelled for a in cls.arrays):
+                grasped = any(a.grasps and a.header.stamp.to_nsec() in cls.labelled for a in cls.arrays)
+                planned = any("trajectory" in v and "executed" in v for v in cls.arm.values())
+                if grasped and planned:
                     break
             time.sleep(0.1)
 
@@ -60,6 +74,21 @@ class AllObjectsPipelineTest(unittest.TestCase):
     def on_grasps(cls, msg):
         with cls.lock:
             cls.arrays.append(msg)
+
+    @classmethod
+    def on_executed(cls, msg):
+        with cls.lock:
+            cls.arm.setdefault(msg.header.stamp.to_nsec(), {})["executed"] = msg
+
+    @classmethod
+    def on_trajectory(cls, msg):
+        with cls.lock:
+            cls.arm.setdefault(msg.header.stamp.to_nsec(), {})["trajectory"] = msg
+
+    @classmethod
+    def on_arm_status(cls, msg):
+        with cls.lock:
+            cls.arm_statuses.append(msg.data)
 
     def frame(self):
         with self.lock:
@@ -109,6 +138,27 @@ class AllObjectsPipelineTest(unittest.TestCase):
         # grouped in pick order: one object's grasps together, best first within it
         order = [g.object_id for g in array.grasps]
         self.assertEqual(order, sorted(order, key=lambda k: order.index(k)))
+
+    def test_the_arm_plans_to_the_object_its_status_names(self):
+        with self.lock:
+            planned = {k: v for k, v in self.arm.items() if "trajectory" in v and "executed" in v}
+            labelled = dict(self.labelled)
+            statuses = list(self.arm_statuses)
+        self.assertTrue(planned, "no arm trajectory; arm planner statuses: %s" % statuses)
+        # Statuses and trajectories come on different topics: match them by the object named.
+        named = {int(m.group(1)) for m in (re.search(r"object (\d+), grasp \d+:", t) for t in statuses) if m}
+        self.assertTrue(named, "no arm status names the object it planned for: %s" % statuses)
+        for stamp, plan in planned.items():
+            self.assertGreater(len(plan["trajectory"].points), 1)
+            if stamp not in labelled:
+                continue
+            p = plan["executed"].pose.position
+            position = np.array([p.x, p.y, p.z])
+            nearest = {k: np.min(np.linalg.norm(points - position, axis=1)) for k, points in labelled[stamp].items()}
+            grasped = min(nearest, key=nearest.get)
+            self.assertIn(grasped, named, "executed grasp %s is nearest object %d; the arm statuses name %s (%s)"
+                          % (position, grasped, sorted(named), statuses))
+            self.assertLess(nearest[grasped], GRASP_TOLERANCE_M)
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 // the approach axis, tilted about the closing axis), its skip reasons, and buildGraspScene's
 // table box. Hand-made scenes around the UR5 + Lacquey gripper + wrist Xtion of urdf/.
 #include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/table_grasp_motion.h"
 
 #include <gtest/gtest.h>
 #include <ompl/util/Console.h>
@@ -257,4 +258,134 @@ TEST(GraspVariants, ConfigReadsTheVariantParameters)
   EXPECT_GT(p.table_thickness_m, 0.0);
 }
 
+}  // namespace
+
+// ---- planTableGraspMotion: the arm's scene holds every object but the one grasped -----------
+namespace
+{
+
+/// A solid block 4 cm along x, 12 cm along y (the closing line of the grasps below) and 5 cm
+/// high standing on z = 0 at (x, y): with 1 cm voxels and the 5 mm padding its sides reach the
+/// open fingers (inner faces 6.5 cm from the centre, urdf/), so only as the grasped object,
+/// which the fingers may touch, does it not block its own grasp.
+void addBlock(pcl::PointCloud<pcl::PointXYZ>& cloud, float x, float y)
+{
+  for (float dx = -0.02f; dx <= 0.02f; dx += 0.005f)
+    for (float dy = -0.06f; dy <= 0.0601f; dy += 0.005f)
+      for (float z = 0.01f; z <= 0.06f; z += 0.005f)
+        cloud.push_back(pcl::PointXYZ(x + dx, y + dy, z));
+}
+
+/// Top grasp over the block at (x, y), fingertips 8 mm above the table (as in
+/// TheTableIsABoxTopAtItsPlaneNotVoxelsAboveIt), closing along y, across the block's 12 cm.
+GraspCandidate topGraspAt(double x, double y, double padding)
+{
+  GraspCandidate g;
+  g.pose = makeGraspPose(Eigen::Vector3d(x, y, 0.045 + 0.008 + padding), Eigen::Vector3d(0, 0, -1),
+                         Eigen::Vector3d(0, 1, 0));
+  return g;
+}
+
+struct TwoBlocks
+{
+  // The target block (label 0) at y = -0.2, block 1 at y = 0, a table around both.
+  pcl::PointCloud<pcl::PointXYZ> table, target, block, scene;
+  pcl::PointCloud<pcl::PointXYZL> objects;
+  TableSceneClouds clouds;
+  TwoBlocks()
+  {
+    for (float x = 0.2f; x <= 0.8f; x += 0.01f)
+      for (float y = -0.4f; y <= 0.3f; y += 0.01f)
+        if (std::abs(x - 0.5f) > 0.03f || (std::abs(y) > 0.07f && std::abs(y + 0.2f) > 0.07f))
+          table.push_back(pcl::PointXYZ(x, y, 0.0f));
+    addBlock(target, 0.5f, -0.2f);
+    addBlock(block, 0.5f, 0.0f);
+    scene = table;  // TableSegmentation's ~scene: everything but the target
+    scene += block;
+    for (const auto& [cloud, label] : { std::make_pair(&target, 0u), std::make_pair(&block, 1u) })
+      for (const auto& p : cloud->points)
+      {
+        pcl::PointXYZL q;
+        q.x = p.x;
+        q.y = p.y;
+        q.z = p.z;
+        q.label = label;
+        objects.push_back(q);
+      }
+    clouds.scene = &scene;
+    clouds.objects = &objects;
+    clouds.table_plane = Eigen::Vector4f(0.0f, 0.0f, 1.0f, 0.0f);
+  }
+};
+
+TEST(TableGraspMotion, TheSceneForAnObjectIsEverythingButThatObject)
+{
+  const TwoBlocks t;
+  const ObjectSceneClouds for_block = sceneForObject(t.clouds, 1);
+  EXPECT_EQ(for_block.object.size(), t.block.size());
+  EXPECT_EQ(for_block.scene.size(), t.table.size() + t.target.size());  // the block left, the target came in
+  EXPECT_TRUE(for_block.unseen.empty());                                // no camera given
+  const ObjectSceneClouds for_target = sceneForObject(t.clouds, 0);
+  EXPECT_EQ(for_target.object.size(), t.target.size());
+  EXPECT_EQ(for_target.scene.size(), t.table.size() + 2 * t.block.size());  // ~scene's copy and the label's
+  // A camera above the table: the hidden space under each block's top joins the scene.
+  TableSceneClouds seen = t.clouds;
+  seen.sensor_origins = { Eigen::Vector3f(0.2f, 0.0f, 0.8f) };
+  const ObjectSceneClouds shadowed = sceneForObject(seen, 1);
+  EXPECT_FALSE(shadowed.unseen.empty());
+  EXPECT_GT(shadowed.scene.size(), for_block.scene.size());
+}
+
+TEST(TableGraspMotion, AGraspOnANeighbourPlansOnlyWithoutThatNeighbourInTheScene)
+{
+  Scene s;
+  const TwoBlocks t;
+  const GraspCandidate on_block = topGraspAt(0.5, 0.0, s.params.link_padding_m);
+  const GraspCandidate on_target = topGraspAt(0.5, -0.2, s.params.link_padding_m);
+  GraspExecutionParams as_given_only = s.params;
+  as_given_only.try_flipped_grasp = false;
+  as_given_only.max_approach_tilt_deg = 0.0;
+
+  // The single-target scene keeps block 1 as an obstacle: its grasp cannot be planned.
+  GraspSceneClouds target_only;
+  target_only.scene = &t.scene;
+  target_only.object = &t.target;
+  target_only.table_plane = t.clouds.table_plane;
+  buildGraspScene(s.collision, home(), target_only, s.params);
+  const GraspPlanResult blocked = planGraspMotion(s.collision, home(), { on_block }, as_given_only);
+  ASSERT_FALSE(blocked.success);
+  EXPECT_NE(reasons(blocked).find("octomap"), std::string::npos) << reasons(blocked);
+
+  // Grasping block 1, block 1 leaves the scene and the target joins it: the grasp into the
+  // target fails, the one on block 1 plans (index into the whole list).
+  const TableGraspPlanResult r = planTableGraspMotion(s.collision, home(), { on_target, on_block }, { 1, 1 }, t.clouds,
+                                                      as_given_only);
+  ASSERT_TRUE(r.ok()) << r.plan.status;
+  EXPECT_EQ(r.object_id, 1);
+  EXPECT_EQ(r.plan.grasp_index, 1);
+  ASSERT_EQ(r.plan.skipped_reasons.size(), 1u) << reasons(r.plan);
+  EXPECT_EQ(r.plan.skipped_reasons[0].rfind("object 1, grasp 0:", 0), 0u) << r.plan.skipped_reasons[0];
+  EXPECT_LT((s.endPose(r.plan).translation() - on_block.position()).norm(), 1e-3);
+
+  // Objects in the order the list names them: block 1 first (its only grasp is into the
+  // target), then the target's own grasp.
+  const TableGraspPlanResult next = planTableGraspMotion(s.collision, home(), { on_target, on_target }, { 1, 0 },
+                                                         t.clouds, as_given_only);
+  ASSERT_TRUE(next.ok()) << next.plan.status;
+  EXPECT_EQ(next.object_id, 0);
+  EXPECT_EQ(next.plan.grasp_index, 1);
+  ASSERT_EQ(next.objects_tried.size(), 2u);
+  EXPECT_EQ(next.objects_tried[0].rfind("object 1:", 0), 0u) << next.objects_tried[0];
+  EXPECT_NE(next.plan.status.find("object 0"), std::string::npos) << next.plan.status;
+
+  // Bad input: a status, no plan.
+  const TableGraspPlanResult mismatched = planTableGraspMotion(s.collision, home(), { on_block }, {}, t.clouds, s.params);
+  EXPECT_FALSE(mismatched.ok());
+  EXPECT_NE(mismatched.plan.status.find("differ"), std::string::npos) << mismatched.plan.status;
+  TableSceneClouds no_objects = t.clouds;
+  no_objects.objects = nullptr;
+  const TableGraspPlanResult none = planTableGraspMotion(s.collision, home(), { on_block }, { 1 }, no_objects, s.params);
+  EXPECT_FALSE(none.ok());
+  EXPECT_EQ(none.object_id, -1);
+}
 }  // namespace

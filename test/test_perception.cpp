@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <random>
 #include <vector>
 
@@ -490,6 +491,66 @@ TEST(TableSegmentation, TwoObjectsTwentyCentimetresApartAreTwoClusters)
   EXPECT_TRUE(parseTargetCluster("largest", parsed));
   EXPECT_EQ(parsed, TargetCluster::Largest);
   EXPECT_FALSE(parseTargetCluster("biggest", parsed));
+}
+
+TEST(TableSegmentation, LabelledObjectsGiveTheTargetLabelZeroAndEveryOtherClusterItsOwn)
+{
+  std::mt19937 rng(5);
+  auto cloud = std::make_shared<CloudXYZ>();
+  addPatch(*cloud, Eigen::Vector3f(0.2f, -0.4f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.8f,
+           0.005f, 0.001f, rng);
+  const Eigen::Vector3f eye(0.5f, -0.3f, 0.9f);
+  addBox(*cloud, Eigen::Vector2f(0.4f, 0.0f), 0.0f, Eigen::Vector3f(0.05f, 0.05f, 0.08f), 0.005f, rng, eye);
+  addBox(*cloud, Eigen::Vector2f(0.6f, 0.0f), 0.0f, Eigen::Vector3f(0.08f, 0.08f, 0.15f), 0.005f, rng, eye);
+  addBox(*cloud, Eigen::Vector2f(0.5f, 0.25f), 0.0f, Eigen::Vector3f(0.06f, 0.04f, 0.10f), 0.005f, rng, eye);
+  finish(*cloud);
+  aimCamera(*cloud, eye, Eigen::Vector3f(0.5f, 0.0f, 0.0f));
+  cloud->header.frame_id = "base_link";
+  TableSegmentationParams params;
+  params.target = TargetCluster::ClosestToPoint;
+  params.target_point_m = Eigen::Vector3f(0.6f, 0.0f, 0.1f);  // the tall box is the target
+  const TableSegmentationResult result = segmentTable(cloud, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  ASSERT_EQ(result.clusters.size(), 3u);
+
+  const auto objects = labelledObjects(*cloud, result);
+  ASSERT_TRUE(objects);
+  EXPECT_EQ(objects->header.frame_id, "base_link");
+  EXPECT_TRUE(objects->sensor_origin_.isApprox(cloud->sensor_origin_));
+  std::size_t clustered = 0;
+  for (const auto& c : result.clusters)
+    clustered += c.indices.size();
+  ASSERT_EQ(objects->size(), clustered);  // every clustered point once, nothing else
+  // Each label's centroid is one box's: 0 the target (x = 0.6), then the other two.
+  std::map<std::uint32_t, Eigen::Vector3d> sums;
+  std::map<std::uint32_t, int> counts;
+  for (const auto& p : objects->points)
+  {
+    sums[p.label] += p.getVector3fMap().cast<double>();
+    ++counts[p.label];
+  }
+  ASSERT_EQ(counts.size(), 3u);
+  std::vector<Eigen::Vector2d> centres;
+  for (const auto& [label, sum] : sums)
+  {
+    EXPECT_LT(label, 3u);
+    centres.push_back((sum / counts[label]).head<2>());
+  }
+  EXPECT_NEAR(centres[0].x(), 0.6, 0.02);
+  EXPECT_NEAR(centres[0].y(), 0.0, 0.02);
+  EXPECT_EQ(static_cast<std::size_t>(counts[0]), result.object->size());
+  const bool near_first = std::abs(centres[1].x() - 0.4) < 0.02;
+  const Eigen::Vector2d near_box = near_first ? centres[1] : centres[2];
+  const Eigen::Vector2d side_box = near_first ? centres[2] : centres[1];
+  EXPECT_NEAR(near_box.x(), 0.4, 0.02);
+  EXPECT_NEAR(near_box.y(), 0.0, 0.02);
+  EXPECT_NEAR(side_box.x(), 0.5, 0.02);
+  EXPECT_NEAR(side_box.y(), 0.25, 0.02);
+
+  // Without a segmentation there is nothing to label.
+  TableSegmentationResult failed;
+  failed.failure = SegmentationFailure::NoCluster;
+  EXPECT_TRUE(labelledObjects(*cloud, failed)->empty());
 }
 
 TEST(TableSegmentation, ASixteenMillimetreCubeIsAnObjectAndTableNoiseIsNot)

@@ -1,11 +1,10 @@
 #include "fast_grasp/grasping/table_grasps.h"
 
+#include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <numeric>
 #include <sstream>
 
 namespace fast_grasp
@@ -72,7 +71,7 @@ bool handSweepHits(const Eigen::Isometry3d& pose, const GripperModel& gripper, c
 
 namespace
 {
-/// The finite points of `cloud` as matrix columns.
+/// Appends the finite points of `cloud` to `out`.
 template <typename PointT>
 void appendPoints(const pcl::PointCloud<PointT>& cloud, std::vector<Eigen::Vector3f>& out)
 {
@@ -113,29 +112,10 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     object.result = planner.plan(views[i], gripper);
     if (views[i].cloud)
     {
-      // Height above the table (or over the object's own lowest point) and distance from the base.
-      const ObjectView& v = views[i];
-      const Eigen::Vector3f up = v.has_table_plane ? Eigen::Vector3f(v.table_plane.head<3>().normalized())
-                                                   : Eigen::Vector3f(-v.gravity.normalized());
-      const float offset = v.has_table_plane ? v.table_plane(3) / v.table_plane.head<3>().norm() : 0.0f;
-      float top = -std::numeric_limits<float>::max(), bottom = std::numeric_limits<float>::max();
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      std::size_t count = 0;
-      for (const auto& p : v.cloud->points)
-      {
-        const Eigen::Vector3f q = p.getVector3fMap();
-        if (!q.allFinite())
-          continue;
-        top = std::max(top, up.dot(q) + offset);
-        bottom = std::min(bottom, up.dot(q) + offset);
-        sum += q.cast<double>();
-        ++count;
-      }
-      if (count > 0)
-      {
-        object.top_height_m = v.has_table_plane ? top : top - bottom;
-        object.base_distance_m = static_cast<float>((sum / static_cast<double>(count)).norm());
-      }
+      const ObjectExtent extent = objectExtent(views[i]);
+      object.top_height_m = extent.height_m;
+      object.centroid = extent.centroid;
+      object.base_distance_m = extent.centroid.norm();
     }
     // The others' obstacles, in one matrix.
     std::size_t others = 0;

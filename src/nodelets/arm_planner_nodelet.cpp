@@ -1,9 +1,12 @@
 // fast_grasp/ArmPlanner: OctoMap scene + unseen space, FCL collision, KDL IK and OMPL,
 // tried best grasp first; publishes ~trajectory for external controllers and serves ~plan.
+// With ~all_objects it takes TableSegmentation's labelled objects and, for each grasp's
+// object_id, plans against a scene of everything but that object (table_grasp_motion.h).
 // All planning logic lives in the ROS-free core (grasp_execution.h); this is the wrapper.
 #include "fast_grasp/PlanGrasp.h"
 #include "fast_grasp/SegmentedScene.h"
 #include "fast_grasp/arm/grasp_execution.h"
+#include "fast_grasp/arm/table_grasp_motion.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 #include "fast_grasp/nodelets/tf_wait.h"
@@ -31,6 +34,7 @@ namespace fast_grasp
 class ArmPlannerNodelet : public nodelet::Nodelet
 {
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+  using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
 
   void onInit() override
   {
@@ -52,6 +56,9 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       // Cameras that saw the object (the grasp planner's ~sensor_frames): with several, space
       // one of them saw is not unseen. Empty: the segmentation's single sensor origin.
       private_nh_.param("sensor_frames", sensor_frames_, sensor_frames_);
+      // Grasps of every object on the table (a grasp planner's ~all_objects): each object's
+      // grasps are planned with that object, not the segmentation's target, out of the scene.
+      private_nh_.param("all_objects", all_objects_, all_objects_);
       private_nh_.param("tf_timeout_s", tf_timeout_s_, tf_timeout_s_);
       // Prefer the robot model the rest of the system uses (robot_state_publisher's).
       ArmKinematics kinematics = nh_.getParam("robot_description", robot_description) && !robot_description.empty() ?
@@ -105,6 +112,8 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     scene_sub_ = nh_.subscribe<Cloud>("scene", 2, &ArmPlannerNodelet::sceneCallback, this);
     object_sub_ = nh_.subscribe<Cloud>("object", 2, &ArmPlannerNodelet::objectCallback, this);
     grasps_sub_ = nh_.subscribe("grasps", 2, &ArmPlannerNodelet::graspsCallback, this);
+    if (all_objects_)
+      objects_sub_ = nh_.subscribe<ObjectsCloud>("objects", 2, &ArmPlannerNodelet::objectsCallback, this);
   }
 
   // Latest inputs, keyed by stamp so the grasps are planned against the scene they came from.
@@ -112,6 +121,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   {
     boost::shared_ptr<const Cloud> scene;
     boost::shared_ptr<const Cloud> object;
+    boost::shared_ptr<const ObjectsCloud> objects;  // ~all_objects only
     fast_grasp::SegmentedScene::ConstPtr info;
   };
 
@@ -145,6 +155,11 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     std::lock_guard<std::mutex> lock(mutex_);
     inputsAt(pcl_conversions::fromPCL(msg->header).stamp).object = msg;
   }
+  void objectsCallback(const boost::shared_ptr<const ObjectsCloud>& msg)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    inputsAt(pcl_conversions::fromPCL(msg->header).stamp).objects = msg;
+  }
 
   /// Start state from a JointState message in chain order; empty message = latest
   /// /joint_states, else the home pose. Empty string on success, else why not.
@@ -172,16 +187,18 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     return "";
   }
 
-  /// Plans against the scene stored for `stamp` (or the newest). Fills `result`.
-  GraspPlanResult plan(const fast_grasp::GraspArray& grasps, const sensor_msgs::JointState& start_msg)
+  /// Plans against the scene stored for `stamp` (or the newest). object_id is -1 unless the
+  /// grasps were planned object by object (~all_objects).
+  TableGraspPlanResult plan(const fast_grasp::GraspArray& grasps, const sensor_msgs::JointState& start_msg)
   {
-    GraspPlanResult result;
+    TableGraspPlanResult table_result;
+    GraspPlanResult& result = table_result.plan;
     Eigen::VectorXd start;
     const std::string start_problem = startState(start_msg, start);
     if (!start_problem.empty())
     {
       result.status = start_problem;
-      return result;
+      return table_result;
     }
     SceneInputs inputs;
     {
@@ -197,6 +214,27 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       candidates.push_back(fromMsg(g));
 
     std::lock_guard<std::mutex> planning(planning_mutex_);  // one RobotCollision scene at a time
+    if (all_objects_)
+    {
+      if (!inputs.objects || inputs.objects->empty())
+      {
+        result.status = "no labelled objects (~objects) for this frame yet";
+        return table_result;
+      }
+      TableSceneClouds table;
+      table.scene = inputs.scene.get();
+      table.objects = inputs.objects.get();
+      if (inputs.info && inputs.info->table_points > 0)
+        table.table_plane = Eigen::Vector4f(inputs.info->table_plane[0], inputs.info->table_plane[1],
+                                            inputs.info->table_plane[2], inputs.info->table_plane[3]);
+      if (inputs.info && inputs.info->ok)
+        table.sensor_origins = sensorOrigins(*inputs.info, inputs.objects->header.frame_id);
+      table.unseen = unseen_params_;
+      std::vector<std::uint32_t> object_ids;
+      for (const auto& g : grasps.grasps)
+        object_ids.push_back(g.object_id);
+      return planTableGraspMotion(*collision_, start, candidates, object_ids, table, params_);
+    }
     GraspSceneClouds clouds;
     clouds.scene = inputs.scene && !inputs.scene->empty() ? inputs.scene.get() : nullptr;
     if (inputs.info && inputs.info->table_points > 0)
@@ -219,7 +257,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     const std::string scene_note = buildGraspScene(*collision_, start, clouds, params_);
     result = planGraspMotion(*collision_, start, candidates, params_);
     result.status += " (" + scene_note + ")";
-    return result;
+    return table_result;
   }
 
   /// Origins of ~sensor_frames in the cloud's frame at the scene's stamp; the segmentation's
@@ -279,11 +317,13 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     executed_grasp_pub_.publish(pose);
   }
 
-  std::string summary(const GraspPlanResult& result) const
+  std::string summary(const TableGraspPlanResult& table) const
   {
+    const GraspPlanResult& result = table.plan;
     std::ostringstream text;
     if (result.success)
-      text << "grasp " << result.grasp_index << ": " << (result.variant.empty() ? "" : result.variant + ", ")
+      text << (table.object_id >= 0 ? "object " + std::to_string(table.object_id) + ", " : std::string())
+           << "grasp " << result.grasp_index << ": " << (result.variant.empty() ? "" : result.variant + ", ")
            << result.points.size() << " waypoints, "
            << (result.points.empty() ? 0.0 : result.points.back().time_from_start_s) << " s, planner "
            << result.planner << ", " << result.planning_time_s * 1e3 << " ms";
@@ -302,18 +342,19 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       return status_.warn("no grasp to plan for: " + grasps->status);
     try
     {
-      const GraspPlanResult result = plan(*grasps, sensor_msgs::JointState());
+      const TableGraspPlanResult table = plan(*grasps, sensor_msgs::JointState());
+      const GraspPlanResult& result = table.plan;
       std_msgs::Header header = grasps->header;
       if (result.success)
       {
         // Status first: a listener that stops at the trajectory has its summary already.
-        status_.ok(summary(result));
+        status_.ok(summary(table));
         publishExecutedGrasp(result, header);
         trajectory_pub_.publish(toTrajectoryMsg(result, header));
       }
       else
       {
-        status_.warn(summary(result));
+        status_.warn(summary(table));
       }
       publishMarkers(result, header);
     }
@@ -333,9 +374,10 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     }
     try
     {
-      const GraspPlanResult result = plan(req.grasps, req.start_state);
+      const TableGraspPlanResult table = plan(req.grasps, req.start_state);
+      const GraspPlanResult& result = table.plan;
       res.success = result.success;
-      res.status = summary(result);
+      res.status = summary(table);
       res.grasp_index = result.grasp_index;
       res.planner = result.planner;
       res.planning_time_s = result.planning_time_s;
@@ -405,7 +447,8 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   NodeletStatus status_;
   ros::Publisher trajectory_pub_, executed_grasp_pub_, markers_pub_;
   ros::ServiceServer plan_service_;
-  ros::Subscriber joint_sub_, scene_info_sub_, scene_sub_, object_sub_, grasps_sub_;
+  ros::Subscriber joint_sub_, scene_info_sub_, scene_sub_, object_sub_, objects_sub_, grasps_sub_;
+  bool all_objects_ = false;
   GraspExecutionParams params_;
   UnseenPartParams unseen_params_;
   std::vector<std::string> sensor_frames_;

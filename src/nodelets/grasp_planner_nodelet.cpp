@@ -190,23 +190,30 @@ std::string GraspPlannerNodelet::lookUpSensorOrigins(const pcl::PCLHeader& heade
   return "";
 }
 
-void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud>& cloud)
+bool GraspPlannerNodelet::initialised()
 {
   if (!planner_)
-  {
     status_.error("not initialised (see the log)");
+  return static_cast<bool>(planner_);
+}
+
+void GraspPlannerNodelet::publishFailure(const std_msgs::Header& header, const std::string& why)
+{
+  fast_grasp::GraspArray msg;
+  msg.header = header;
+  msg.status = why;
+  grasps_pub_.publish(msg);
+  status_.error(why);
+}
+
+void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud>& cloud)
+{
+  if (!initialised())
     return;
-  }
   std_msgs::Header header;
   if (cloud)
     header = pcl_conversions::fromPCL(cloud->header);
-  fast_grasp::GraspArray failure_msg;
-  failure_msg.header = header;
-  auto publishFailure = [&](const std::string& why) {
-    failure_msg.status = why;
-    grasps_pub_.publish(failure_msg);
-    status_.error(why);
-  };
+  auto publishFailure = [&](const std::string& why) { this->publishFailure(header, why); };
   try
   {
     const CloudNormal::ConstPtr input = toStd(cloud);  // zero-copy
@@ -248,21 +255,12 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
 
 void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects)
 {
-  if (!planner_)
-  {
-    status_.error("not initialised (see the log)");
+  if (!initialised())
     return;
-  }
   std_msgs::Header header;
   if (objects)
     header = pcl_conversions::fromPCL(objects->header);
-  fast_grasp::GraspArray msg;
-  msg.header = header;
-  auto publishFailure = [&](const std::string& why) {
-    msg.status = why;
-    grasps_pub_.publish(msg);
-    status_.error(why);
-  };
+  auto publishFailure = [&](const std::string& why) { this->publishFailure(header, why); };
   try
   {
     const CloudCheck check = checkCloud<pcl::PointXYZL>(toStd(objects), static_cast<std::size_t>(max_input_points_));
@@ -303,6 +301,8 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
       return publishFailure("DegenerateInput: no labelled object has enough points for normals");
 
     const TableGraspResult table = planTableGrasps(views, *planner_, gripper_, table_params_);
+    fast_grasp::GraspArray msg;
+    msg.header = header;
     msg.compute_time_s = table.compute_time_s;
     for (const std::size_t index : table.order)
       for (const GraspCandidate& g : table.objects[index].result.grasps)

@@ -673,10 +673,7 @@ int planAllObjects(const Options& options, const PreparedView& prepared, const G
     Report::TableObject summary;
     const ObjectView& view = prepared.objects[object.object];
     summary.points = view.cloud->size();
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const auto& p : view.cloud->points)
-      sum += p.getVector3fMap().cast<double>();
-    summary.centroid = (sum / static_cast<double>(std::max<std::size_t>(1, summary.points))).cast<float>();
+    summary.centroid = object.centroid;
     summary.top_height_m = object.top_height_m;
     summary.status = object.ok() ? "ok" : toString(object.result.failure == GraspFailure::None ? GraspFailure::NoStableGrasp
                                                                                                 : object.result.failure);

@@ -51,6 +51,7 @@ struct ObjectGrasps
   GraspResult result;      // the planner's result; grasps that hit a neighbour removed
   std::size_t blocked_by_neighbours = 0;
   float top_height_m = 0.0f;      // highest point above the table (the lowest point without one)
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  // of the seen points
   float base_distance_m = 0.0f;   // centroid's distance from the base frame's origin
   bool ok() const { return !result.grasps.empty(); }
 };

@@ -55,6 +55,10 @@ private:
   /// cloud's own sensor_origin_. Empty string on success, else why not.
   std::string lookUpSensorOrigins(const pcl::PCLHeader& header, const Eigen::Vector4f& sensor_origin,
                                   std::vector<Eigen::Vector3f>& origins);
+  /// Both callbacks' opening: false (and the status says why) until onInit succeeded.
+  bool initialised();
+  /// A GraspArray with no grasps and status `why` on ~grasps, and `why` on the status topic.
+  void publishFailure(const std_msgs::Header& header, const std::string& why);
   void publishMarkers(const GraspResult& result, const std_msgs::Header& header);
   /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
