@@ -153,9 +153,13 @@ class Report:
             if grasps.grasps:
                 g = grasps.grasps[0]
                 q = g.pose.orientation
+                objects = sorted({x.object_id for x in grasps.grasps})
+                # all_objects: the first grasp is of the object picked first, not always the target.
+                source = g.algorithm if len(objects) < 2 else "%s, object %d of %d with grasps" % (
+                    g.algorithm, g.object_id, len(objects))
                 lines.append("  grasp (%s, best of %d, %.2f ms): position (%.3f, %.3f, %.3f) m, "
                              "orientation xyzw (%.3f, %.3f, %.3f, %.3f), width %.3f m, score %.3f"
-                             % (g.algorithm, len(grasps.grasps), grasps.compute_time_s * 1e3,
+                             % (source, len(grasps.grasps), grasps.compute_time_s * 1e3,
                                 g.pose.position.x, g.pose.position.y, g.pose.position.z,
                                 q.x, q.y, q.z, q.w, g.width_m, g.score))
                 metrics = [(name, getattr(g, name)) for name in
