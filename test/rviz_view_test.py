@@ -4,7 +4,7 @@
 screenshot that must show the object cloud, the grasp markers and the robot where they are.
 
 The displays and topics are the shipped config's; only what a pixel check needs is changed in a
-test copy: a fixed orbit view (TEST_VIEW) and the displays that would cover everything (raw cloud, table, scene, grid, normals, next view, arm planner markers)
+test copy: a fixed orbit view (TEST_VIEW) and the displays that would cover everything (raw cloud, table, scene, all objects, grid, normals, next view, arm planner markers)
 switched off. Known 3-D points (the object cloud's centroid, the best grasp's position, the
 robot links' origins from tf) are projected with the orbit camera into the render area (found
 in the screenshot as the bounding box of the background colour) and each region must hold
@@ -39,7 +39,7 @@ TIMEOUT_S = 120.0
 # and looks at the focal point, z up): the whole UR5 at its home pose and the table in front.
 TEST_VIEW = {"Distance": 1.9, "Focal Point": {"X": 0.25, "Y": 0.0, "Z": 0.25}, "Pitch": 0.45, "Yaw": 0.9,
              "Field of View": 0.785}
-HIDDEN = ("Raw cloud", "Table", "Scene", "Grid", "Normals", "Next view (Ch3.2.3)", "Arm planner", "TF")
+HIDDEN = ("Raw cloud", "Table", "Scene", "All objects", "Grid", "Normals", "Next view (Ch3.2.3)", "Arm planner", "TF")
 ROBOT_LINKS = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_2_link", "gripper_palm_link")
 OBJECT_RGB = (255, 40, 40)
 # Controls: nothing is there (0.3 m above the object; beside the arm at its home pose).

@@ -31,8 +31,9 @@ std_msgs::ColorRGBA colour(float r, float g, float b, float a = 1.0f)
   return c;
 }
 
-visualization_msgs::Marker pointsMarker(const CloudXYZ& cloud, const std::string& ns, const std_msgs::ColorRGBA& c,
-                                        double size_m)
+template <typename PointT>
+visualization_msgs::Marker pointsMarker(const pcl::PointCloud<PointT>& cloud, const std::string& ns,
+                                        const std_msgs::ColorRGBA& c, double size_m)
 {
   visualization_msgs::Marker m;
   m.ns = ns;
@@ -322,7 +323,7 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
               << " ms";
       msg.status = "ok";
       grasps_pub_.publish(msg);
-      publishMarkers(first.result, header);
+      publishMarkers(first.result, header, views[first.object].cloud.get());
       status_.ok(summary.str());
     }
     else
@@ -350,7 +351,8 @@ void GraspPlannerNodelet::publishNextView(const GraspResult& result, const std_m
   next_view_pub_.publish(pose);
 }
 
-void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_msgs::Header& header)
+void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_msgs::Header& header,
+                                         const CloudNormal* chosen_object)
 {
   if (markers_pub_.getNumSubscribers() == 0)
     return;
@@ -366,6 +368,9 @@ void GraspPlannerNodelet::publishMarkers(const GraspResult& result, const std_ms
     array.markers.push_back(pointsMarker(result.graspable_zone, "graspable_zone", colour(0.1f, 0.3f, 1.0f), 0.006));
   if (!result.unseen.empty())
     array.markers.push_back(pointsMarker(result.unseen, "unseen_part", colour(0.5f, 0.5f, 0.5f, 0.4f), 0.004));
+  // ~all_objects: which of the table's objects is picked first (its grasp is drawn below).
+  if (chosen_object && !chosen_object->empty())
+    array.markers.push_back(pointsMarker(*chosen_object, "chosen_object", colour(1.0f, 0.85f, 0.0f, 0.9f), 0.008));
 
   // Candidates as arrows along their approach, red (worst) to green (best).
   const std::size_t shown = std::min<std::size_t>(result.candidates.size(), static_cast<std::size_t>(max_marker_candidates_));

@@ -59,7 +59,10 @@ private:
   bool initialised();
   /// A GraspArray with no grasps and status `why` on ~grasps, and `why` on the status topic.
   void publishFailure(const std_msgs::Header& header, const std::string& why);
-  void publishMarkers(const GraspResult& result, const std_msgs::Header& header);
+  /// Hull, graspable zone, unseen part, candidates and the best grasp as the gripper; with
+  /// `chosen_object` (~all_objects) that object's points too, in yellow.
+  void publishMarkers(const GraspResult& result, const std_msgs::Header& header,
+                      const CloudNormal* chosen_object = nullptr);
   /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
 
