@@ -8,7 +8,9 @@ Parameters (private): bag (path, to count its frames), timeout_s, cloud_topic, r
 (write the report there instead of stdout: scripts/demo.sh shows only it and the warnings),
 expect_grasps (bool), expect_trajectory (bool), stop_after_grasp (bool: a live camera, e.g.
 scene_camera following the next view, has no frame count; stop at the first frame with a grasp
-reported in full).
+reported in full), clear_table (bool: scene_camera clears a cluttered table; print each of its
+picks, stop when it says the table is cleared or when no pick came for ~pick_timeout_s, 30 s;
+exit 1 only if there was no pick at all).
 """
 import math
 import os
@@ -193,6 +195,22 @@ def main():
     stop_after_grasp = rospy.get_param("~stop_after_grasp", False)
     expect_trajectory = rospy.get_param("~expect_trajectory", False)
     report = Report()
+    clear_table = rospy.get_param("~clear_table", False)
+    pick_timeout_s = rospy.get_param("~pick_timeout_s", 30.0)
+    picks = []  # scene_camera's pick lines, in order
+    cleared = threading.Event()
+
+    def on_camera_status(msg):
+        text = msg.data[4:] if msg.data.startswith("OK: ") else msg.data
+        if text.startswith("pick "):
+            picks.append(text)
+            print("scene_camera: " + text, flush=True)
+        elif text.startswith("table cleared"):
+            print("scene_camera: " + text, flush=True)
+            cleared.set()
+
+    if clear_table:
+        rospy.Subscriber("/scene_camera/status", String, on_camera_status, queue_size=20)
     subscribers = [
         rospy.Subscriber("/table_segmentation/segmented_scene", SegmentedScene, report.on_scene, queue_size=10),
         rospy.Subscriber("/grasp_planner/grasps", GraspArray, report.on_grasps, queue_size=10)]
@@ -211,6 +229,19 @@ def main():
     # Wall-clock timeout: sim time stops when the bag ends.
     import time
     deadline = time.monotonic() + timeout_s
+    if clear_table:
+        last_pick, seen = time.monotonic(), 0
+        while not rospy.is_shutdown() and not cleared.is_set():
+            if len(picks) != seen:
+                last_pick, seen = time.monotonic(), len(picks)
+            if time.monotonic() - last_pick > pick_timeout_s:
+                print("pipeline_report: stopped after %d pick(s): no pick for %.0f s" % (len(picks), pick_timeout_s),
+                      flush=True)
+                sys.exit(0 if picks else 1)
+            time.sleep(0.05)
+        time.sleep(0.5)  # the last round's frame reports
+        print("pipeline_report: table cleared in %d pick(s)" % len(picks), flush=True)
+        return
     while not rospy.is_shutdown() and time.monotonic() < deadline:
         if expected and report.printed() >= expected:
             print("pipeline_report: all %d frame(s) reported" % expected, flush=True)

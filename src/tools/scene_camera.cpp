@@ -20,6 +20,15 @@
 // transformed with the pose that saw it, however slow the machine: no settle time to tune.
 // Subscribes next_view (geometry_msgs/PoseStamped, remap to /grasp_planner/next_view).
 // Publishes ~status (std_msgs/String, latched): one line per view.
+//
+// ~clear_table (false): the clutter-removal loop of issue 11 run live. Subscribes
+// executed_grasp (geometry_msgs/PoseStamped, remap to /arm_planner/executed_grasp): the first
+// one for a frame of the current round counts as a pick; the scene object nearest the grasp
+// point (its mesh vertices) is taken off the table, the camera goes back to the scene's view and
+// renders the rest (a new round, new noise seeds). Status lines "pick N: <object> (M left)" and,
+// when nothing is left, "table cleared: N objects picked". No physics: what lay on a picked
+// object stays where it was (the physics evaluator, scripts/evaluate_clutter_physics.py, lets
+// the rest settle and executes the grasp).
 #include "command_line.h"
 #include "scene_description.h"
 
@@ -41,6 +50,8 @@
 #define FAST_GRASP_SOURCE_DIR "."
 #endif
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -73,15 +84,19 @@ public:
     private_nh.param("frame_period_s", frame_period_s, 0.5);
     private_nh.param("start_delay_s", start_delay_s, 2.0);
     private_nh.param("start_paused", paused_, false);
+    private_nh.param("clear_table", clear_table_, false);
     if (frames_per_view_ < 1 || max_views_ < 1 || !(frame_period_s > 0.0))
       throw std::runtime_error("frames_per_view and max_views must be >= 1, frame_period_s > 0");
 
     scene_ = loadSceneDescription(scene_path, ycb_dir);
     renderer_ = std::make_unique<XtionRenderer>(scene_.parts);
     hand_ = scene_.cameras.front();
+    on_table_ = scene_.objects.size();
     status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
     next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
+    if (clear_table_)
+      executed_grasp_sub_ = nh.subscribe("executed_grasp", 5, &SimulatedEyeInHandCamera::onExecutedGrasp, this);
     pause_service_ = private_nh.advertiseService("pause_playback", &SimulatedEyeInHandCamera::onPause, this);
     publishOpticalTransform();
     publishCameraTransform(stampNow());
@@ -179,6 +194,63 @@ private:
     moved_ = true;
   }
 
+  /// ~clear_table: a trajectory to this grasp exists; take its object off the table.
+  void onExecutedGrasp(const geometry_msgs::PoseStamped& msg)
+  {
+    if (picked_this_round_ || on_table_ == 0 || !view_stamps_.count(microseconds(msg.header.stamp)))
+      return;  // one pick per round, for a frame of this round
+    if (msg.header.frame_id != "base_link")
+    {
+      report("pick ignored: frame '" + msg.header.frame_id + "' is not base_link");
+      return;
+    }
+    const Eigen::Vector3f grasp(static_cast<float>(msg.pose.position.x), static_cast<float>(msg.pose.position.y),
+                                static_cast<float>(msg.pose.position.z));
+    if (!grasp.allFinite())
+      return;
+    // The object whose surface is nearest the grasp centre (which lies between the fingers).
+    int label = -1;
+    float nearest = std::numeric_limits<float>::infinity();
+    for (const ScenePart& part : scene_.parts)
+    {
+      if (part.label == kSceneBackgroundLabel || removed_labels_.count(part.label))
+        continue;
+      for (const Eigen::Vector3f& v : part.mesh.vertices)
+        if ((v - grasp).squaredNorm() < nearest)
+        {
+          nearest = (v - grasp).squaredNorm();
+          label = part.label;
+        }
+    }
+    if (label < 0)
+      return;
+    picked_this_round_ = true;
+    removed_labels_.insert(label);
+    --on_table_;
+    std::vector<ScenePart> remaining;
+    for (const ScenePart& part : scene_.parts)
+      if (!removed_labels_.count(part.label))
+        remaining.push_back(part);
+    renderer_ = std::make_unique<XtionRenderer>(remaining);
+    std::string name = "label " + std::to_string(label);
+    for (const SceneObject& object : scene_.objects)
+      if (object.label == label)
+        name = object.name;
+    ++picks_;
+    std::ostringstream line;
+    line << "pick " << picks_ << ": " << name << " (grasp " << std::sqrt(nearest) * 100.0f << " cm from its surface; "
+         << on_table_ << " left)";
+    report(line.str());
+    if (on_table_ == 0)
+    {
+      report("table cleared: " + std::to_string(picks_) + " objects picked");
+      frames_sent_ = frames_per_view_;  // nothing more to look at
+      view_stamps_.clear();
+      return;
+    }
+    pending_pose_ = scene_.cameras.front().optical_pose;  // back to the scene's view: the next round
+  }
+
   void moveTo(const Eigen::Isometry3d& pose)
   {
     hand_.optical_pose = pose;
@@ -186,12 +258,13 @@ private:
     view_stamps_.clear();
     frames_sent_ = 0;
     moved_ = false;
+    picked_this_round_ = false;
     publishCameraTransform(stampNow());
     next_frame_time_ = ros::WallTime::now();  // the next tick renders the new view
     const Eigen::Vector3d p = pose.translation();
     std::ostringstream line;
-    line << "view " << view_ << ": camera moved to the planner's next view (" << p.x() << ", " << p.y() << ", "
-         << p.z() << ") m";
+    line << "view " << view_ << ": camera moved to " << (clear_table_ && picks_ > 0 ? "the scene's view" : "the planner's next view")
+         << " (" << p.x() << ", " << p.y() << ", " << p.z() << ") m";
     report(line.str());
   }
 
@@ -215,12 +288,18 @@ private:
   int frames_sent_ = 0;
   bool moved_ = false;
   bool paused_ = false;
+  bool clear_table_ = false;
+  bool picked_this_round_ = false;
+  std::size_t on_table_ = 0;  // objects not yet picked
+  int picks_ = 0;
+  std::set<int> removed_labels_;
   std::set<std::uint64_t> view_stamps_;
   ros::WallTime next_frame_time_;
   std::optional<Eigen::Isometry3d> pending_pose_;
   ros::Publisher status_pub_;
   ros::Publisher cloud_pub_;
   ros::Subscriber next_view_sub_;
+  ros::Subscriber executed_grasp_sub_;
   ros::ServiceServer pause_service_;
   ros::WallTimer timer_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
@@ -234,7 +313,7 @@ int main(int argc, char** argv)
   static const char* const kUsage =
       "usage: scene_camera [ROS remappings] _scene:=FILE.yaml [_start_paused:=true] [_start_delay_s:=S]\n"
       "  renders a scene YAML as a live Xtion-style eye-in-hand camera and moves to ~next_view\n"
-      "  (private parameters: docs/parameters/render.md; used by demo.launch scene:=NAME)\n";
+      "  (private parameters: docs/pipeline.md, scene_camera; used by demo.launch scene:=NAME)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   ros::init(argc, argv, "scene_camera");  // takes the ROS remappings out of argv
   for (int i = 1; i < argc; ++i)
