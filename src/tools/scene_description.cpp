@@ -188,6 +188,7 @@ SceneDescription loadSceneDescription(const std::string& scene_path, const std::
     spec.pose = table_pose * Eigen::Translation3d(xy.at(0) - centre_xy[0], xy.at(1) - centre_xy[1], 0.0) *
                 Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ());
     const int label = spec.target ? kSceneTargetLabel : next_label++;
+    spec.label = label;
     std::vector<std::string> sources;
     float top = 0.0f;
     for (const auto& part_node : object["parts"])
