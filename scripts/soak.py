@@ -88,6 +88,8 @@ class Frame:
 
 
 def load_frames(pattern=os.path.join(BAG_DIR, "*.bag")):
+    # clutter_* bags stay in: the soak checks frame accounting and memory, not any object's
+    # truth, and several objects per frame is input the pipeline must take
     frames = []
     for path in sorted(glob.glob(pattern)):
         if os.path.basename(path).startswith("two_camera"):

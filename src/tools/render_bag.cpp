@@ -19,6 +19,7 @@
 #include <tf2_msgs/TFMessage.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -105,15 +106,58 @@ struct Visible
   pcl::PointCloud<pcl::PointXYZ> points;  // base_link
 };
 
-void collectVisible(const fast_grasp::RenderedFrame& frame, const Eigen::Isometry3d& optical_pose, Visible& out)
+// The pixels of frame that see parts labelled `label` (default: the target), in base_link.
+void collectVisible(const fast_grasp::RenderedFrame& frame, const Eigen::Isometry3d& optical_pose, Visible& out,
+                    int label = fast_grasp::kSceneTargetLabel)
 {
   const Eigen::Isometry3f pose = optical_pose.cast<float>();
   for (size_t i = 0; i < frame.points.size(); ++i)
-    if (frame.part_label[i] == fast_grasp::kSceneTargetLabel && std::isfinite(frame.points[i].z()))
+    if (frame.part_label[i] == label && std::isfinite(frame.points[i].z()))
     {
       const Eigen::Vector3f p = pose * frame.points[i];
       out.points.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
     }
+}
+
+pcl::PointCloud<pcl::PointXYZ> voxelCentroids(const pcl::PointCloud<pcl::PointXYZ>& points, float leaf_m)
+{
+  pcl::PointCloud<pcl::PointXYZ> voxels;
+  if (points.empty())
+    return voxels;
+  pcl::VoxelGrid<pcl::PointXYZ> grid;  // centroid per voxel
+  grid.setInputCloud(points.makeShared());
+  grid.setLeafSize(leaf_m, leaf_m, leaf_m);
+  grid.filter(voxels);
+  return voxels;
+}
+
+// The whole surface of the parts labelled `label` (posed, base_link; seen by the camera or not):
+// every triangle sampled on a barycentric grid at most spacing_m apart (deterministic, no
+// seed), then reduced to voxel centroids of leaf_m. What a test needs to tell whether a finger
+// enters an object, including the side the camera cannot see.
+pcl::PointCloud<pcl::PointXYZ> surfacePoints(const std::vector<ScenePart>& parts, int label, float spacing_m,
+                                             float leaf_m)
+{
+  pcl::PointCloud<pcl::PointXYZ> samples;
+  for (const ScenePart& part : parts)
+  {
+    if (part.label != label)
+      continue;
+    const auto& v = part.mesh.vertices;
+    for (const Eigen::Vector3i& t : part.mesh.triangles)
+    {
+      const Eigen::Vector3f a = v[t[0]], ab = v[t[1]] - a, ac = v[t[2]] - a;
+      const float longest = std::max({ ab.norm(), ac.norm(), (ac - ab).norm() });
+      const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing_m)));
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j)
+        {
+          const Eigen::Vector3f p = a + ab * (static_cast<float>(i) / n) + ac * (static_cast<float>(j) / n);
+          samples.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+        }
+    }
+  }
+  return voxelCentroids(samples, leaf_m);
 }
 
 void emitVec(YAML::Emitter& out, const Eigen::Vector3d& v)
@@ -129,6 +173,17 @@ void emitPose(YAML::Emitter& out, const std::string& frame, const Eigen::Isometr
   emitVec(out, pose.translation());
   out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.x() << q.y() << q.z()
       << q.w() << YAML::EndSeq << YAML::EndMap;
+}
+
+// key: [[x, y, z], ...]; coordinates rounded to round_m when it is > 0.
+void emitPoints(YAML::Emitter& out, const std::string& key, const pcl::PointCloud<pcl::PointXYZ>& points,
+                float round_m = 0.0f)
+{
+  const auto rounded = [round_m](float v) { return round_m > 0.0f ? std::round(v / round_m) * round_m : v; };
+  out << YAML::Key << key << YAML::Value << YAML::BeginSeq;
+  for (const auto& p : points.points)
+    out << YAML::Flow << YAML::BeginSeq << rounded(p.x) << rounded(p.y) << rounded(p.z) << YAML::EndSeq;
+  out << YAML::EndSeq;
 }
 
 void emitVisible(YAML::Emitter& out, const std::string& prefix, const Visible& visible)
@@ -152,17 +207,41 @@ void emitVisible(YAML::Emitter& out, const std::string& prefix, const Visible& v
   emitVec(out, centroid);
   out << YAML::Key << prefix + "visible_extent" << YAML::Value;
   emitVec(out, hi - lo);
-  pcl::PointCloud<pcl::PointXYZ> voxels;
-  if (n > 0)
+  emitPoints(out, prefix + "visible_points_1cm", voxelCentroids(visible.points, 0.01f));
+}
+
+// Every scene object in scene order (issue 11 clutter bags): pose, part label, its own noise-free
+// visible points in frame 0 of the first camera, and its whole surface at kSurfaceLeafM.
+constexpr float kSurfaceLeafM = 0.005f;
+constexpr float kSurfaceSpacingM = 0.0025f;
+
+void emitObjects(YAML::Emitter& out, const fast_grasp::SceneDescription& scene, const fast_grasp::RenderedFrame& frame)
+{
+  out << YAML::Key << "objects" << YAML::Value << YAML::BeginSeq;
+  for (const fast_grasp::SceneObject& object : scene.objects)
   {
-    pcl::VoxelGrid<pcl::PointXYZ> grid;  // centroid per 1 cm voxel
-    grid.setInputCloud(visible.points.makeShared());
-    grid.setLeafSize(0.01f, 0.01f, 0.01f);
-    grid.filter(voxels);
+    Visible visible;
+    collectVisible(frame, scene.cameras[0].optical_pose, visible, object.label);
+    const Eigen::Quaterniond q(object.pose.linear());
+    out << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << object.name;
+    out << YAML::Key << "target" << YAML::Value << object.target;
+    out << YAML::Key << "label" << YAML::Value << object.label;
+    out << YAML::Key << "source" << YAML::Value << YAML::DoubleQuoted << object.source;
+    out << YAML::Key << "position" << YAML::Value;
+    emitVec(out, object.pose.translation());
+    out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.x() << q.y() << q.z()
+        << q.w() << YAML::EndSeq;
+    out << YAML::Key << "height_m" << YAML::Value << object.height_m;
+    out << YAML::Key << "visible_points" << YAML::Value << visible.points.size();
+    emitPoints(out, "visible_points_1cm", voxelCentroids(visible.points, 0.01f));
+    // rounded to 0.1 mm: a tenth of the voxel's half size, and a shorter file
+    emitPoints(out, "surface_points_5mm", surfacePoints(scene.parts, object.label, kSurfaceSpacingM, kSurfaceLeafM),
+               1e-4f);
+    out << YAML::EndMap;
+    std::cout << "  " << object.name << " (label " << object.label << (object.target ? ", target" : "")
+              << "): " << visible.points.size() << " visible points" << std::endl;
   }
-  out << YAML::Key << prefix + "visible_points_1cm" << YAML::Value << YAML::BeginSeq;
-  for (const auto& p : voxels.points)
-    out << YAML::Flow << YAML::BeginSeq << p.x << p.y << p.z << YAML::EndSeq;
   out << YAML::EndSeq;
 }
 
@@ -283,8 +362,9 @@ int run(const Options& options)
   out << YAML::Key << "camera_pose" << YAML::Value;
   emitPose(out, scene.cameras[0].prefix + "_rgb_optical_frame", scene.cameras[0].optical_pose);
   out << YAML::Key << "topic" << YAML::Value << "/" + scene.cameras[0].prefix + "/depth_registered/points";
+  const fast_grasp::RenderedFrame noise_free = renderer.renderNoiseFree(scene.cameras[0].optical_pose);
   Visible first;
-  collectVisible(renderer.renderNoiseFree(scene.cameras[0].optical_pose), scene.cameras[0].optical_pose, first);
+  collectVisible(noise_free, scene.cameras[0].optical_pose, first);
   emitVisible(out, "", first);
   std::cout << "  visible target points (noise-free, frame 0): " << first.points.size() << std::endl;
   if (scene.cameras.size() == 2)
@@ -302,6 +382,7 @@ int run(const Options& options)
     std::cout << "  visible from head camera: " << second.points.size() << ", union: " << both.points.size()
               << std::endl;
   }
+  emitObjects(out, scene, noise_free);
   out << YAML::EndMap;
   std::ofstream truth(options.truth_path);
   truth << "# Ground truth for " << bag_name << " (written by render_bag; see docs/renderer.md)\n"

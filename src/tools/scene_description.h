@@ -33,7 +33,7 @@ struct SceneObject
   bool target = false;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // base of the object, in base_link
   double height_m = 0.0;
-  int label = kSceneTargetLabel;  // part_label of its parts (the target 1, the others 2, 3, ...)
+  int label = kSceneTargetLabel;  // part_label of its parts: the target 1, distractors 2, 3, ... in scene order
 };
 
 struct SceneDescription
