@@ -119,47 +119,6 @@ void collectVisible(const fast_grasp::RenderedFrame& frame, const Eigen::Isometr
     }
 }
 
-pcl::PointCloud<pcl::PointXYZ> voxelCentroids(const pcl::PointCloud<pcl::PointXYZ>& points, float leaf_m)
-{
-  pcl::PointCloud<pcl::PointXYZ> voxels;
-  if (points.empty())
-    return voxels;
-  pcl::VoxelGrid<pcl::PointXYZ> grid;  // centroid per voxel
-  grid.setInputCloud(points.makeShared());
-  grid.setLeafSize(leaf_m, leaf_m, leaf_m);
-  grid.filter(voxels);
-  return voxels;
-}
-
-// The whole surface of the parts labelled `label` (posed, base_link; seen by the camera or not):
-// every triangle sampled on a barycentric grid at most spacing_m apart (deterministic, no
-// seed), then reduced to voxel centroids of leaf_m. What a test needs to tell whether a finger
-// enters an object, including the side the camera cannot see.
-pcl::PointCloud<pcl::PointXYZ> surfacePoints(const std::vector<ScenePart>& parts, int label, float spacing_m,
-                                             float leaf_m)
-{
-  pcl::PointCloud<pcl::PointXYZ> samples;
-  for (const ScenePart& part : parts)
-  {
-    if (part.label != label)
-      continue;
-    const auto& v = part.mesh.vertices;
-    for (const Eigen::Vector3i& t : part.mesh.triangles)
-    {
-      const Eigen::Vector3f a = v[t[0]], ab = v[t[1]] - a, ac = v[t[2]] - a;
-      const float longest = std::max({ ab.norm(), ac.norm(), (ac - ab).norm() });
-      const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing_m)));
-      for (int i = 0; i <= n; ++i)
-        for (int j = 0; i + j <= n; ++j)
-        {
-          const Eigen::Vector3f p = a + ab * (static_cast<float>(i) / n) + ac * (static_cast<float>(j) / n);
-          samples.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
-        }
-    }
-  }
-  return voxelCentroids(samples, leaf_m);
-}
-
 void emitVec(YAML::Emitter& out, const Eigen::Vector3d& v)
 {
   out << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
@@ -207,7 +166,7 @@ void emitVisible(YAML::Emitter& out, const std::string& prefix, const Visible& v
   emitVec(out, centroid);
   out << YAML::Key << prefix + "visible_extent" << YAML::Value;
   emitVec(out, hi - lo);
-  emitPoints(out, prefix + "visible_points_1cm", voxelCentroids(visible.points, 0.01f));
+  emitPoints(out, prefix + "visible_points_1cm", fast_grasp::voxelCentroids(visible.points, 0.01f));
 }
 
 // Every scene object in scene order (issue 11 clutter bags): pose, part label, its own noise-free
@@ -234,9 +193,9 @@ void emitObjects(YAML::Emitter& out, const fast_grasp::SceneDescription& scene, 
         << q.w() << YAML::EndSeq;
     out << YAML::Key << "height_m" << YAML::Value << object.height_m;
     out << YAML::Key << "visible_points" << YAML::Value << visible.points.size();
-    emitPoints(out, "visible_points_1cm", voxelCentroids(visible.points, 0.01f));
+    emitPoints(out, "visible_points_1cm", fast_grasp::voxelCentroids(visible.points, 0.01f));
     // rounded to 0.1 mm: a tenth of the voxel's half size, and a shorter file
-    emitPoints(out, "surface_points_5mm", surfacePoints(scene.parts, object.label, kSurfaceSpacingM, kSurfaceLeafM),
+    emitPoints(out, "surface_points_5mm", fast_grasp::surfacePoints(scene.parts, object.label, kSurfaceSpacingM, kSurfaceLeafM),
                1e-4f);
     out << YAML::EndMap;
     std::cout << "  " << object.name << " (label " << object.label << (object.target ? ", target" : "")

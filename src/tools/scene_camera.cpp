@@ -52,6 +52,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -92,6 +93,9 @@ public:
     renderer_ = std::make_unique<XtionRenderer>(scene_.parts);
     hand_ = scene_.cameras.front();
     on_table_ = scene_.objects.size();
+    if (clear_table_)
+      for (const SceneObject& object : scene_.objects)
+        surfaces_[object.label] = surfacePoints(scene_.parts, object.label, 0.0025f, 0.005f);
     status_pub_ = private_nh.advertise<std_msgs::String>("status", 5, /*latch=*/true);
     cloud_pub_ = nh.advertise<sensor_msgs::PointCloud2>("/" + hand_.prefix + "/depth_registered/points", 2);
     next_view_sub_ = nh.subscribe("next_view", 5, &SimulatedEyeInHandCamera::onNextView, this);
@@ -208,18 +212,19 @@ private:
                                 static_cast<float>(msg.pose.position.z));
     if (!grasp.allFinite())
       return;
-    // The object whose surface is nearest the grasp centre (which lies between the fingers).
+    // The object whose surface is nearest the grasp centre (which lies between the fingers);
+    // surface samples, not mesh vertices: a box's 8 corners are far from a grasp on its face.
     int label = -1;
     float nearest = std::numeric_limits<float>::infinity();
-    for (const ScenePart& part : scene_.parts)
+    for (const SceneObject& object : scene_.objects)
     {
-      if (part.label == kSceneBackgroundLabel || removed_labels_.count(part.label))
+      if (removed_labels_.count(object.label))
         continue;
-      for (const Eigen::Vector3f& v : part.mesh.vertices)
-        if ((v - grasp).squaredNorm() < nearest)
+      for (const auto& p : surfaces_.at(object.label).points)
+        if ((p.getVector3fMap() - grasp).squaredNorm() < nearest)
         {
-          nearest = (v - grasp).squaredNorm();
-          label = part.label;
+          nearest = (p.getVector3fMap() - grasp).squaredNorm();
+          label = object.label;
         }
     }
     if (label < 0)
@@ -293,6 +298,7 @@ private:
   std::size_t on_table_ = 0;  // objects not yet picked
   int picks_ = 0;
   std::set<int> removed_labels_;
+  std::map<int, pcl::PointCloud<pcl::PointXYZ>> surfaces_;  // per object label, 5 mm (clear_table)
   std::set<std::uint64_t> view_stamps_;
   ros::WallTime next_frame_time_;
   std::optional<Eigen::Isometry3d> pending_pose_;

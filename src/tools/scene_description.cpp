@@ -1,8 +1,11 @@
 #include "scene_description.h"
 
+#include <pcl/filters/voxel_grid.h>
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <sstream>
@@ -263,6 +266,43 @@ pcl::PointCloud<pcl::PointXYZRGB>::Ptr organisedCloud(const RenderedFrame& frame
     point.b = static_cast<std::uint8_t>(rgb & 0xff);
   }
   return cloud;
+}
+
+pcl::PointCloud<pcl::PointXYZ> voxelCentroids(const pcl::PointCloud<pcl::PointXYZ>& points, float leaf_m)
+{
+  pcl::PointCloud<pcl::PointXYZ> voxels;
+  if (points.empty())
+    return voxels;
+  pcl::VoxelGrid<pcl::PointXYZ> grid;  // centroid per voxel
+  grid.setInputCloud(points.makeShared());
+  grid.setLeafSize(leaf_m, leaf_m, leaf_m);
+  grid.filter(voxels);
+  return voxels;
+}
+
+pcl::PointCloud<pcl::PointXYZ> surfacePoints(const std::vector<ScenePart>& parts, int label, float spacing_m,
+                                             float leaf_m)
+{
+  pcl::PointCloud<pcl::PointXYZ> samples;
+  for (const ScenePart& part : parts)
+  {
+    if (part.label != label)
+      continue;
+    const auto& v = part.mesh.vertices;
+    for (const Eigen::Vector3i& t : part.mesh.triangles)
+    {
+      const Eigen::Vector3f a = v[t[0]], ab = v[t[1]] - a, ac = v[t[2]] - a;
+      const float longest = std::max({ ab.norm(), ac.norm(), (ac - ab).norm() });
+      const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing_m)));
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j)
+        {
+          const Eigen::Vector3f p = a + ab * (static_cast<float>(i) / n) + ac * (static_cast<float>(j) / n);
+          samples.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+        }
+    }
+  }
+  return voxelCentroids(samples, leaf_m);
 }
 
 }  // namespace fast_grasp

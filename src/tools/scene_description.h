@@ -62,6 +62,16 @@ std::uint64_t renderSeed(const SceneDescription& scene, std::size_t camera, int 
 /// link's pose in base_link is optical_pose * linkFromOptical().inverse().
 Eigen::Isometry3d linkFromOptical();
 
+/// One point per occupied leaf_m voxel: the centroid of its points (pcl::VoxelGrid).
+pcl::PointCloud<pcl::PointXYZ> voxelCentroids(const pcl::PointCloud<pcl::PointXYZ>& points, float leaf_m);
+
+/// The whole surface of the parts labelled `label` (posed, base_link; seen by the camera or not):
+/// every triangle sampled on a barycentric grid at most spacing_m apart (deterministic, no
+/// seed), then reduced to voxel centroids of leaf_m. render_bag's truth (whether a finger enters
+/// an object, including the side the camera cannot see) and scene_camera's picks use it.
+pcl::PointCloud<pcl::PointXYZ> surfacePoints(const std::vector<ScenePart>& parts, int label, float spacing_m,
+                                             float leaf_m);
+
 /// A rendered frame as the organised x y z rgb cloud a registered Xtion gives (camera optical
 /// frame, NaN where there is no depth): what render_bag writes into its bags.
 pcl::PointCloud<pcl::PointXYZRGB>::Ptr organisedCloud(const RenderedFrame& frame);
