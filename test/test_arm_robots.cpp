@@ -4,6 +4,7 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
+#include "fast_grasp/arm/robot_config.h"
 #include "fast_grasp/arm/trajectory_timing.h"
 
 #include <ompl/util/RandomNumbers.h>
@@ -14,6 +15,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
 
 namespace
@@ -483,6 +486,27 @@ TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
   EXPECT_NEAR(p.link_padding_m, 0.005, 1e-12);
   EXPECT_NEAR(p.robot.home_pose_rad.at("shoulder_lift_joint"), -1.5708, 1e-9);
   EXPECT_THROW(robotParams("no_such_robot"), std::runtime_error);
+}
+
+TEST(RobotConfig, AHomePoseThatIsAFolderIsABadFileNotALeak)
+{
+  // Fuzzed config (test/fuzz/corpus/robot_config/leak_home_pose_is_a_folder): home_pose "."
+  // names the config's own folder. yaml-cpp reading a folder leaked its buffer (LeakSanitizer);
+  // now it is refused before reading, naming the path, as a missing file is.
+  const std::string folder = ::testing::TempDir() + "/robot_config_home_folder";
+  std::filesystem::create_directories(folder);
+  const std::string path = folder + "/bot.yaml";
+  std::ofstream(path) << "urdf: " << sourcePath("urdf/ur5_gripper_xtion.urdf") << "\nhome_pose: .\n";
+  try
+  {
+    loadRobotConfig(path);
+    FAIL() << "a home_pose folder was accepted";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("bad file"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(folder), std::string::npos) << e.what();
+  }
 }
 
 TEST(RobotConfig, RobotPlannerParametersOverridePlannersYaml)

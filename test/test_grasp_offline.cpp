@@ -775,6 +775,11 @@ TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
     // readHeader itself allocates POINTS x the point size so far, before any check.
     { "huge_points", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1000000000\nDATA ascii\n1 2 3\n",
       "allocate 12000000000 bytes" },
+    // A COUNT that is no int (overflow, junk after it): PCL's sum then depends on stream state.
+    { "count_not_an_int", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 99999999999 1 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
+      "SIZE or COUNT value" },
+    { "size_zero", "VERSION 0.7\nFIELDS x y z\nSIZE 0 4 4\nTYPE F F F\nCOUNT 1 1 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
+      "SIZE or COUNT value" },
   };
   for (const BadHeader& bad : bad_headers)
   {
@@ -782,9 +787,10 @@ TEST(OfflinePipeline, PcdReaderRefusesHeadersPclWouldOverflow)
     EXPECT_EQ(fast_grasp::readPcdCloud(write(bad.name, bad.text), error), nullptr) << bad.name;
     EXPECT_NE(error.find(bad.reason), std::string::npos) << bad.name << ": " << error;
   }
-  // The fuzzer's files: fields after POINTS (also an unknown TYPE '!'), and COUNT 1666...6
-  // (17 GB asked inside readHeader); both refused before PCL reads them.
-  for (const char* fuzzed : { "crash_fields_after_points", "crash_count_overflow_oom" })
+  // The fuzzer's files: fields after POINTS (also an unknown TYPE '!'), COUNT 1666...6 (17 GB
+  // asked inside readHeader), and COUNT 1666...6 followed by NUL bytes (17 GB again, session 15);
+  // all refused before PCL reads them.
+  for (const char* fuzzed : { "crash_fields_after_points", "crash_count_overflow_oom", "oom_count_overflow_then_junk" })
   {
     error.clear();
     EXPECT_EQ(fast_grasp::readPcdCloud(kSourceDir + "/test/fuzz/corpus/pcd_input/" + fuzzed, error), nullptr);

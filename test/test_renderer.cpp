@@ -360,4 +360,28 @@ TEST(XtionRenderer, ObjFaceIndicesAreCheckedBeforeVtkReadsThem)
   EXPECT_NE(error.find("face vertex '4/'"), std::string::npos) << error;
 }
 
+TEST(XtionRenderer, ObjNormalsNoFaceNamesMustBeOnePerVertex)
+{
+  // Fewer "vn" lines than vertices and no face naming one: VTK keeps them as per-vertex normals
+  // and PCL's vtk2mesh copies one per vertex, past the array's end (heap overflow found by
+  // fuzzing, session 15). Normals that faces name, or one per vertex, read fine.
+  TriangleMesh mesh;
+  std::string error;
+  const auto write = [](const std::string& name, const std::string& text) {
+    const std::string path = ::testing::TempDir() + "/" + name + ".obj";
+    std::ofstream(path) << text;
+    return path;
+  };
+  const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
+  EXPECT_FALSE(loadMeshFile(write("one_loose_normal", vertices + "vn 0 0 1\nf 1 2 3\n"), mesh, error));
+  EXPECT_NE(error.find("1 normal(s) for 3 vertices"), std::string::npos) << error;
+  ASSERT_TRUE(loadMeshFile(write("named_normal", vertices + "vn 0 0 1\nf 1//1 2//1 3//1\n"), mesh, error)) << error;
+  ASSERT_TRUE(loadMeshFile(write("normal_per_vertex", vertices + "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1 2 3\n"), mesh, error))
+      << error;
+  EXPECT_EQ(mesh.triangles.size(), 1u);
+  error.clear();
+  EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_obj_fewer_normals_than_vertices", "fuzzed.obj"), mesh, error));
+  EXPECT_NE(error.find("normal(s) for"), std::string::npos) << error;
+}
+
 }  // namespace fast_grasp

@@ -2,6 +2,7 @@
 
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/yaml_file.h"
 
 #include <ompl/base/goals/GoalStates.h>
 #include <ompl/base/spaces/RealVectorStateSpace.h>
@@ -676,7 +677,7 @@ PlannerParameterTable loadPlannerParameters(const std::string& yaml_path)
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(yaml_path);
+    root = loadYamlFile(yaml_path);
   }
   catch (const std::exception& e)
   {

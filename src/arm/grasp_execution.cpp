@@ -1,5 +1,7 @@
 #include "fast_grasp/arm/grasp_execution.h"
 
+#include "fast_grasp/core/yaml_file.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -86,7 +88,7 @@ GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(arm_yaml);
+    root = loadYamlFile(arm_yaml);
   }
   catch (const std::exception& e)
   {
@@ -723,7 +725,7 @@ ArmScene loadArmScene(const std::string& yaml_path)
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(yaml_path);
+    root = loadYamlFile(yaml_path);
   }
   catch (const std::exception& e)
   {

@@ -1,5 +1,7 @@
 #include "fast_grasp/arm/robot_config.h"
 
+#include "fast_grasp/core/yaml_file.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -54,7 +56,7 @@ RobotConfig loadRobotConfig(const std::string& yaml_path)
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(yaml_path);
+    root = loadYamlFile(yaml_path);
   }
   catch (const std::exception& e)
   {
@@ -116,7 +118,7 @@ RobotConfig loadRobotConfig(const std::string& yaml_path)
     if (root["home_pose"])
     {
       robot.home_pose_path = resolve(root["home_pose"].as<std::string>(), folder);
-      const YAML::Node home = YAML::LoadFile(robot.home_pose_path);
+      const YAML::Node home = loadYamlFile(robot.home_pose_path);
       for (const auto& entry : home)
         robot.home_pose_rad[entry.first.as<std::string>()] = entry.second.as<double>();
     }

@@ -1,5 +1,7 @@
 #include "fast_grasp/core/gripper_model.h"
 
+#include "fast_grasp/core/yaml_file.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -41,7 +43,7 @@ GripperModel loadGripperModel(const std::string& yaml_path)
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(yaml_path);
+    root = loadYamlFile(yaml_path);
   }
   catch (const YAML::Exception& e)
   {

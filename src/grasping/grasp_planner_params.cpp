@@ -1,5 +1,7 @@
 #include "fast_grasp/grasping/grasp_planner_params.h"
 
+#include "fast_grasp/core/yaml_file.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -397,7 +399,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
   YAML::Node root;
   try
   {
-    root = YAML::LoadFile(yaml_path);
+    root = loadYamlFile(yaml_path);
   }
   catch (const YAML::Exception& e)
   {

@@ -245,6 +245,7 @@ std::string objFileProblem(const std::string& path)
       lines.push_back(line);
   }
   static const char* const kNames[3] = { "vertex", "texture coordinate", "normal" };
+  bool face_names_a_normal = false;
   for (const std::string& line : lines)
   {
     std::istringstream words(line);
@@ -270,8 +271,14 @@ std::string objFileProblem(const std::string& path)
           return "face vertex '" + vertex + "' names " + kNames[k] + " " + parts[k] + " of " +
                  std::to_string(counts[k]);
       }
+      face_names_a_normal = face_names_a_normal || parts.size() == 3;
     }
   }
+  // VTK keeps normals no face names as one per vertex, and PCL's vtk2mesh copies one per vertex:
+  // fewer of them is a heap overflow inside libpcl_io (found by fuzzing, test/fuzz/corpus/mesh_loader/).
+  if (counts[2] > 0 && counts[2] < counts[0] && !face_names_a_normal)
+    return std::to_string(counts[2]) + " normal(s) for " + std::to_string(counts[0]) +
+           " vertices and no face names one (one normal per vertex expected)";
   return "";
 }
 }  // namespace

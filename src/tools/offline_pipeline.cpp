@@ -66,6 +66,9 @@ void setSensorPose(CloudXYZ& cloud, const Eigen::Vector3f& origin)
 /// so far, before any check (a 255-byte file with COUNT 1666...6 asked for 17 GB: out-of-memory
 /// while fuzzing, test/fuzz/corpus/pcd_input/crash_count_overflow_oom). The header is walked
 /// as readHeader walks it: until the first line of no known keyword, DATA included.
+/// kUnreadableSizeOrCount when a SIZE or COUNT value does not read as an int >= 1.
+constexpr std::uint64_t kUnreadableSizeOrCount = std::numeric_limits<std::uint64_t>::max();
+
 std::uint64_t pcdHeaderAllocation(const std::string& path)
 {
   std::ifstream file(path, std::ios::binary);
@@ -100,13 +103,17 @@ std::uint64_t pcdHeaderAllocation(const std::string& path)
     {
       if (values != fields)
         break;  // readHeader fails here
-      // PCL reads the values as ints from one stream (0 after a failed read) and sums them in
-      // int: the low 32 bits of this unsigned (wrapping) sum.
+      // PCL reads the values as ints from one stream and sums them in int: the low 32 bits of
+      // this unsigned (wrapping) sum. What PCL makes of a value that is no int (overflow, junk)
+      // depends on the stream state it leaves (COUNT 1666...6 followed by NUL bytes: 17 GB,
+      // test/fuzz/corpus/pcd_input/oom_count_overflow_then_junk): no such header is worth
+      // modelling, it is refused (kUnreadableSizeOrCount).
       std::uint64_t step = 0;
       for (std::size_t i = 0; i < fields; ++i)
       {
         int value = 0;
-        words >> value;
+        if (!(words >> value) || value < 1)
+          return kUnreadableSizeOrCount;
         if (starts(keyword, "SIZE"))
           sizes[i] = static_cast<std::uint64_t>(static_cast<std::int64_t>(value));
         step += starts(keyword, "SIZE") ? sizes[i] : static_cast<std::uint64_t>(static_cast<std::int64_t>(value)) * sizes[i];
@@ -245,6 +252,11 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
   const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
   // binary_compressed data expands at most ~100x (LZF).
   const std::uint64_t header_allocation = size_error ? 0 : pcdHeaderAllocation(path);
+  if (header_allocation == kUnreadableSizeOrCount)
+  {
+    error = path + ": a SIZE or COUNT value of its header is not a whole number from 1 to 2^31 - 1";
+    return nullptr;
+  }
   if (header_allocation > 100 * file_bytes + 4096)
   {
     error = path + ": its header makes PCL allocate " + std::to_string(header_allocation) +

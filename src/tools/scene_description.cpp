@@ -1,5 +1,7 @@
 #include "scene_description.h"
 
+#include "fast_grasp/core/yaml_file.h"
+
 #include <pcl/filters/voxel_grid.h>
 
 #include <yaml-cpp/yaml.h>
@@ -139,7 +141,7 @@ TriangleMesh partMesh(const YAML::Node& node, const std::string& scene_path, con
 
 SceneDescription loadSceneDescription(const std::string& scene_path, const std::string& ycb_dir)
 {
-  const YAML::Node root = YAML::LoadFile(scene_path);
+  const YAML::Node root = loadYamlFile(scene_path);
   SceneDescription scene;
   scene.name = root["name"].as<std::string>();
   scene.seed = root["seed"] ? root["seed"].as<uint64_t>() : 1;
