@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <functional>
+#include <map>
 
 namespace fast_grasp
 {
@@ -176,6 +178,124 @@ TEST(TableGrasps, TheObjectChoiceOrdersBestGraspTopmostAndNearest)
   EXPECT_NEAR(topmost.objects[0].top_height_m, 0.06, 0.003);
   params.object_choice = ObjectChoice::NearestToBase;
   EXPECT_EQ(planTableGrasps(views, planner, gripper, params).order, (std::vector<std::size_t>{ 0, 1 }));
+}
+
+TEST(TableGrasps, ThePlannerIsGivenTheNeighboursWithinAHandsReach)
+{
+  // Boxes A (y = 0) and B (y = 7 cm) 3 cm apart, and C 40 cm away (y = -40 cm). Each object's
+  // planner sees as obstacles the points of the others within a hand's reach of its own points:
+  // A gets B's (and B A's) but not C's; C gets none.
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, 0.07, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, -0.40, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { kCamera, 0.002, 0.0, 1 });
+  const auto part = [&](double lo, double hi) {
+    CloudNormal::Ptr cloud(new CloudNormal);
+    for (const auto& p : scene->points)
+      if (p.y >= lo && p.y < hi)
+        cloud->push_back(p);
+    ObjectView view = synthetic::makeObjectView(cloud, kCamera);
+    view.has_table_plane = true;
+    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+    return view;
+  };
+  const std::vector<ObjectView> views{ part(-0.1, 0.035), part(0.035, 0.2), part(-0.6, -0.1) };
+  std::map<int, std::pair<std::size_t, double>> seen;  // object (by centroid y) -> obstacles, their mean y
+  const StubPlanner planner([&](const ObjectView& view) {
+    const int key = static_cast<int>(std::lround(centroidOf(view).y() * 100.0));
+    double mean_y = 0.0;
+    if (view.obstacles)
+      for (const auto& q : view.obstacles->points)
+        mean_y += q.y / static_cast<double>(view.obstacles->size());
+    seen[key] = { view.obstacles ? view.obstacles->size() : 0u, mean_y };
+    return std::vector<GraspCandidate>{};
+  });
+  TableGraspParams params;
+  params.neighbour_unseen_parts = false;  // seen points only: the counts below are the boxes'
+  planTableGrasps(views, planner, synthetic::robotiqLikeGripper(), params);
+  ASSERT_EQ(seen.size(), 3u);
+  for (const auto& [key, obstacles] : seen)
+  {
+    if (key < -20)  // C: nobody within reach
+      EXPECT_EQ(obstacles.first, 0u);
+    else if (key < 3)  // A: B's points, all of them (B lies within reach)
+    {
+      EXPECT_EQ(obstacles.first, views[1].cloud->size());
+      EXPECT_NEAR(obstacles.second, 0.07, 0.015);
+    }
+    else  // B: A's points
+    {
+      EXPECT_EQ(obstacles.first, views[0].cloud->size());
+      EXPECT_NEAR(obstacles.second, 0.0, 0.015);
+    }
+  }
+}
+
+TEST(TableGrasps, ARealPlannerFitsItsGraspsBetweenCloseNeighbours)
+{
+  // The shipped fused planner on box A with boxes 3 cm away on both sides (y = -7 and +7 cm):
+  // closing along y would put a finger into a neighbour, so every grasp it returns must keep
+  // its fingers out of both, and none is left for the sweep to drop.
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.0, -0.07, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, 0.07, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { kCamera, 0.002, 0.0, 1 });
+  const auto part = [&](double lo, double hi) {
+    CloudNormal::Ptr cloud(new CloudNormal);
+    for (const auto& p : scene->points)
+      if (p.y >= lo && p.y < hi)
+        cloud->push_back(p);
+    ObjectView view = synthetic::makeObjectView(cloud, kCamera);
+    view.has_table_plane = true;
+    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+    return view;
+  };
+  const std::vector<ObjectView> views{ part(-0.035, 0.035), part(-0.2, -0.035), part(0.035, 0.2) };
+  const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  const auto planner = makeGraspPlanner("fused", config);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const TableGraspResult table = planTableGrasps(views, *planner, gripper, config.table_grasps);
+  const ObjectGrasps& middle = table.objects.at(0);
+  ASSERT_TRUE(middle.ok()) << middle.result.message;
+  // Each open finger (max opening, the gripper's finger box) sampled on a 5 x 5 x 5 grid: no
+  // sample inside a neighbour box (|x| < 2 cm, 5 cm < |y| < 9 cm, z < 8 cm).
+  for (const GraspCandidate& g : middle.result.grasps)
+    for (const double side : { -1.0, 1.0 })
+      for (int i = 0; i < 5; ++i)
+        for (int j = 0; j < 5; ++j)
+          for (int k = 0; k < 5; ++k)
+          {
+            const Eigen::Vector3d local((i / 4.0 - 0.5) * gripper.finger_depth_m,
+                                        side * (0.5 * gripper.max_opening_m + (j / 4.0) * gripper.finger_thickness_m),
+                                        (k / 4.0 - 0.5) * gripper.finger_width_m);
+            const Eigen::Vector3d q = g.pose * local;
+            const bool in_neighbour = std::abs(q.x()) < 0.02 && std::abs(q.y()) > 0.05 && std::abs(q.y()) < 0.09 &&
+                                      q.z() > 0.0 && q.z() < 0.08;
+            EXPECT_FALSE(in_neighbour) << "finger sample " << q.transpose() << " of grasp at "
+                                       << g.pose.translation().transpose();
+          }
+  // Blind to its neighbours (the planner as it was before session 15), its ten best grasps are
+  // ones the sweep then drops: fewer survive (2026-12-04: 3 kept seeing them, 0 blind).
+  class Blind : public GraspPlanner
+  {
+  public:
+    explicit Blind(const GraspPlanner& inner) : inner_(inner) {}
+    GraspResult plan(const ObjectView& view, const GripperModel& g) const override
+    {
+      ObjectView without = view;
+      without.obstacles.reset();
+      return inner_.plan(without, g);
+    }
+    const char* name() const override { return "blind"; }
+
+  private:
+    const GraspPlanner& inner_;
+  };
+  const TableGraspResult blind = planTableGrasps(views, Blind(*planner), gripper, config.table_grasps);
+  EXPECT_GT(middle.result.grasps.size(), blind.objects.at(0).result.grasps.size())
+      << "seeing the neighbours: " << middle.result.grasps.size() << " kept, " << middle.blocked_by_neighbours
+      << " dropped; blind: " << blind.objects.at(0).result.grasps.size() << " kept, "
+      << blind.objects.at(0).blocked_by_neighbours << " dropped";
 }
 
 TEST(TableGrasps, TheYamlSectionIsReadAndBadValuesAreRefused)

@@ -667,6 +667,7 @@ GraspResult BoundaryGraspPlanner::plan(const ObjectView& view, const GripperMode
   {
     GripperVolumeCheck check(gripper, p.gripper_fit);
     check.addSeen(*view.cloud);
+    check.addObstacles(view);
     if (p.use_unseen_part)
     {
       std::optional<Eigen::Vector4f> table;

@@ -690,6 +690,7 @@ GraspResult ConcavityGraspPlanner::plan(const ObjectView& view, const GripperMod
   {
     hand.emplace(gripper, p.gripper_fit);
     hand->addSeen(*finite);
+    hand->addObstacles(view);
     if (p.use_unseen_part)
     {
       UnseenPartParams unseen_params = p.unseen;

@@ -1020,11 +1020,14 @@ GraspResult CShapeGraspPlanner::plan(const ObjectView& view, const GripperModel&
   }
   ctx.first_unseen = ctx.obstacles->size();
   *ctx.obstacles += unseen_points;
+  if (view.obstacles)
+    *ctx.obstacles += *view.obstacles;  // the neighbours count as unseen: the C-shape stays out
   if (params_.gripper_fit.enabled)
   {
     ctx.hand.emplace(gripper, params_.gripper_fit);
     ctx.hand->addSeen(*ctx.seen);
     ctx.hand->addUnseen(unseen_points);
+    ctx.hand->addObstacles(view);
     if (view.has_table_plane && params_.check_table_clearance)
       ctx.hand->setTable(view.table_plane);
   }

@@ -291,6 +291,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     const auto hand_check = [&](const GripperFitParams& fit, bool with_unseen = true) {
       GripperVolumeCheck check(gripper, fit);
       check.addSeen(*view.cloud);
+      check.addObstacles(view);  // the neighbours always: seen or not, they are there
       if (with_unseen)
         check.addUnseen(unseen);
       if (view.has_table_plane)
@@ -376,6 +377,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   {
     full_check.emplace(gripper, params_.gripper_fit);
     full_check->addSeen(*full_view.cloud);
+    full_check->addObstacles(full_view);
     std::optional<Eigen::Vector4f> table;
     if (full_view.has_table_plane)
     {

@@ -66,6 +66,12 @@ void GripperVolumeCheck::addUnseen(const CloudXYZ& cloud)
   appendFinite(cloud, unseen_);
 }
 
+void GripperVolumeCheck::addObstacles(const ObjectView& view)
+{
+  if (view.obstacles)
+    appendFinite(*view.obstacles, unseen_);
+}
+
 double GripperVolumeCheck::maxBackoff() const
 {
   constexpr double kMinFingerOverlapM = 0.005;

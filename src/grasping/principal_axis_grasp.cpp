@@ -579,6 +579,7 @@ GraspResult PrincipalAxisGraspPlanner::plan(const ObjectView& view, const Grippe
     }
     GripperVolumeCheck check(gripper, p.gripper_fit);
     check.addSeen(*view.cloud);
+    check.addObstacles(view);
     if (view.has_table_plane)
       check.setTable(view.table_plane);
     const std::size_t stable = grasps.size();

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <sstream>
 
 namespace fast_grasp
@@ -105,11 +107,39 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     }
   }
 
+  // How far from an object's points any part of a hand grasping it can be: the fingers' depth
+  // and the palm behind them, half the opening and a finger to the side.
+  const float reach = static_cast<float>(gripper.finger_depth_m + gripper.palm_thickness_m +
+                                         0.5 * gripper.max_opening_m + gripper.finger_thickness_m +
+                                         params.neighbour_clearance_m);
   for (std::size_t i = 0; i < views.size(); ++i)
   {
     ObjectGrasps object;
     object.object = i;
-    object.result = planner.plan(views[i], gripper);
+    // The planner's own hand check keeps out of the neighbours (those within reach): its best
+    // grasps are then ones that fit among them, not ones the sweep below would all drop.
+    ObjectView view = views[i];
+    if (view.cloud && !view.cloud->empty())
+    {
+      Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
+      for (const auto& p : view.cloud->points)
+        if (p.getVector3fMap().allFinite())
+        {
+          lo = lo.cwiseMin(p.getVector3fMap());
+          hi = hi.cwiseMax(p.getVector3fMap());
+        }
+      lo.array() -= reach;
+      hi.array() += reach;
+      auto near = std::make_shared<CloudXYZ>();
+      for (std::size_t j = 0; j < views.size(); ++j)
+        if (j != i)
+          for (const Eigen::Vector3f& q : obstacles[j])
+            if ((q.array() >= lo.array()).all() && (q.array() <= hi.array()).all())
+              near->push_back(PointXYZ(q.x(), q.y(), q.z()));
+      if (!near->empty())
+        view.obstacles = near;
+    }
+    object.result = planner.plan(view, gripper);
     if (views[i].cloud)
     {
       const ObjectExtent extent = objectExtent(views[i]);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,6 +34,10 @@ struct ObjectView
   bool has_table_plane = false;
   /// Unit gravity direction.
   Eigen::Vector3f gravity{ 0.0f, 0.0f, -1.0f };
+  /// Points the open hand must stay out of besides the object's own (and its unseen part): the
+  /// other objects on the table and the space hidden behind them (grasping/table_grasps.h).
+  /// Null for a single object. The planners' hand checks treat them as their unseen part.
+  std::shared_ptr<const CloudXYZ> obstacles;
 };
 
 /// One grasp (named GraspCandidate because the ROS message fast_grasp::GraspCandidate shares the

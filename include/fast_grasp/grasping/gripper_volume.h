@@ -115,6 +115,9 @@ public:
     appendFinite(cloud, seen_);
   }
   void addUnseen(const CloudXYZ& cloud);
+  /// The view's neighbouring objects (ObjectView::obstacles), kept out of the hand like the
+  /// unseen part; nothing without them.
+  void addObstacles(const ObjectView& view);
   /// The supporting plane a x + b y + c z + d = 0 ((a, b, c) need not be unit; the side of
   /// the seen points is "above"). Ignored when not finite or degenerate.
   void setTable(const Eigen::Vector4f& plane);

@@ -66,8 +66,10 @@ struct TableGraspResult
   const ObjectGrasps& chosen() const { return objects.at(order.at(0)); }
 };
 
-/// Plans every view with `planner`, drops each grasp whose hand (swept from the pre-grasp)
-/// would touch another view's points or unseen part, and orders the objects. Views must share
+/// Plans every view with `planner`, the other views' points and unseen parts within a hand's
+/// reach given to it as ObjectView::obstacles (its hand check fits its grasps among them), then
+/// drops each grasp whose hand, grown by neighbour_clearance_m and swept from the pre-grasp,
+/// would still touch them, and orders the objects. Views must share
 /// one frame, sensor origins and table plane (one camera frame segmented into objects).
 TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const GraspPlanner& planner,
                                  const GripperModel& gripper, const TableGraspParams& params);
