@@ -66,8 +66,13 @@ void setSensorPose(CloudXYZ& cloud, const Eigen::Vector3f& origin)
 /// so far, before any check (a 255-byte file with COUNT 1666...6 asked for 17 GB: out-of-memory
 /// while fuzzing, test/fuzz/corpus/pcd_input/crash_count_overflow_oom). The header is walked
 /// as readHeader walks it: until the first line of no known keyword, DATA included.
-/// kUnreadableSizeOrCount when a SIZE or COUNT value does not read as an int >= 1.
+/// kUnreadableSizeOrCount when a SIZE or COUNT value does not read as an int >= 1, and
+/// kUnprintableHeaderLine when a header line (not a comment) holds a byte other than printable
+/// ASCII, tab or CR: PCL counts a line's values split at space, tab and CR but reads them with a
+/// stream that also splits at \v and \f, so such a line is counted one way and read another
+/// (COUNT 1666...6, NUL bytes, \v: 17 GB, test/fuzz/corpus/pcd_input/oom_count_overflow_then_junk).
 constexpr std::uint64_t kUnreadableSizeOrCount = std::numeric_limits<std::uint64_t>::max();
+constexpr std::uint64_t kUnprintableHeaderLine = std::numeric_limits<std::uint64_t>::max() - 1;
 
 std::uint64_t pcdHeaderAllocation(const std::string& path)
 {
@@ -85,6 +90,18 @@ std::uint64_t pcdHeaderAllocation(const std::string& path)
     words.imbue(std::locale::classic());
     std::string keyword;
     words >> keyword;
+    if (!keyword.empty() && keyword[0] != '#')
+      for (const char c : line)
+        if (!((c >= 0x20 && c < 0x7f) || c == '\t' || c == '\r'))
+        {
+          // Only lines readHeader takes as header lines matter; the first other line ends it.
+          static const char* const kKeywords[] = { "VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT",
+                                                   "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA" };
+          for (const char* k : kKeywords)
+            if (keyword.rfind(k, 0) == 0)
+              return kUnprintableHeaderLine;
+          break;
+        }
     std::size_t values = 0;  // the words after the keyword
     std::istringstream count_words(line);
     for (std::string word; count_words >> word;)
@@ -252,6 +269,11 @@ CloudXYZ::Ptr readPcdCloud(const std::string& path, std::string& error)
   const std::uint64_t file_bytes = std::filesystem::file_size(path, size_error);
   // binary_compressed data expands at most ~100x (LZF).
   const std::uint64_t header_allocation = size_error ? 0 : pcdHeaderAllocation(path);
+  if (header_allocation == kUnprintableHeaderLine)
+  {
+    error = path + ": a header line holds a control or non-ASCII byte";
+    return nullptr;
+  }
   if (header_allocation == kUnreadableSizeOrCount)
   {
     error = path + ": a SIZE or COUNT value of its header is not a whole number from 1 to 2^31 - 1";
