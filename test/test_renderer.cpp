@@ -335,25 +335,28 @@ TEST(XtionRenderer, StlFormatIsDecidedBeforeVtkReadsIt)
   EXPECT_NE(error.find("nor a binary one (684 bytes, not 84 + 50 x the 13 triangles"), std::string::npos) << error;
 }
 
+/// `text` as the OBJ file <temp>/<name>.obj; its path.
+std::string writeObj(const std::string& name, const std::string& text)
+{
+  const std::string path = ::testing::TempDir() + "/" + name + ".obj";
+  std::ofstream(path) << text;
+  return path;
+}
+
 TEST(XtionRenderer, ObjFaceIndicesAreCheckedBeforeVtkReadsThem)
 {
   // VTK 9.1's OBJ reader dereferences a null texture-coordinate array for "v/vt" without any
   // "vt" line (the fuzzer's file: "f 1 2 4/ 3"); with the texture coordinates it reads.
   TriangleMesh mesh;
   std::string error;
-  const auto write = [](const std::string& name, const std::string& text) {
-    const std::string path = ::testing::TempDir() + "/" + name + ".obj";
-    std::ofstream(path) << text;
-    return path;
-  };
   const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
-  EXPECT_FALSE(loadMeshFile(write("texture_without_vt", vertices + "f 1 2/1 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeObj("texture_without_vt", vertices + "f 1 2/1 3\n"), mesh, error));
   EXPECT_NE(error.find("face vertex '2/1' names texture coordinate 1 of 0"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(write("empty_texture", vertices + "f 1 2/ 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeObj("empty_texture", vertices + "f 1 2/ 3\n"), mesh, error));
   EXPECT_NE(error.find("is not v, v/vt, v/vt/vn or v//vn"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(write("vertex_out_of_range", vertices + "f 1 2 4\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeObj("vertex_out_of_range", vertices + "f 1 2 4\n"), mesh, error));
   EXPECT_NE(error.find("names vertex 4 of 3"), std::string::npos) << error;
-  ASSERT_TRUE(loadMeshFile(write("with_texture", vertices + "vt 0 0\nvt 1 0\nf 1/1 2/2 3/1\n"), mesh, error)) << error;
+  ASSERT_TRUE(loadMeshFile(writeObj("with_texture", vertices + "vt 0 0\nvt 1 0\nf 1/1 2/2 3/1\n"), mesh, error)) << error;
   EXPECT_EQ(mesh.triangles.size(), 1u);
   error.clear();
   EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_obj_texture_index_without_vt", "fuzzed.obj"), mesh, error));
@@ -367,16 +370,11 @@ TEST(XtionRenderer, ObjNormalsNoFaceNamesMustBeOnePerVertex)
   // fuzzing, session 15). Normals that faces name, or one per vertex, read fine.
   TriangleMesh mesh;
   std::string error;
-  const auto write = [](const std::string& name, const std::string& text) {
-    const std::string path = ::testing::TempDir() + "/" + name + ".obj";
-    std::ofstream(path) << text;
-    return path;
-  };
   const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
-  EXPECT_FALSE(loadMeshFile(write("one_loose_normal", vertices + "vn 0 0 1\nf 1 2 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeObj("one_loose_normal", vertices + "vn 0 0 1\nf 1 2 3\n"), mesh, error));
   EXPECT_NE(error.find("1 normal(s) for 3 vertices"), std::string::npos) << error;
-  ASSERT_TRUE(loadMeshFile(write("named_normal", vertices + "vn 0 0 1\nf 1//1 2//1 3//1\n"), mesh, error)) << error;
-  ASSERT_TRUE(loadMeshFile(write("normal_per_vertex", vertices + "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1 2 3\n"), mesh, error))
+  ASSERT_TRUE(loadMeshFile(writeObj("named_normal", vertices + "vn 0 0 1\nf 1//1 2//1 3//1\n"), mesh, error)) << error;
+  ASSERT_TRUE(loadMeshFile(writeObj("normal_per_vertex", vertices + "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1 2 3\n"), mesh, error))
       << error;
   EXPECT_EQ(mesh.triangles.size(), 1u);
   error.clear();

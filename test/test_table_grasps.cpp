@@ -20,18 +20,25 @@ namespace
 {
 const Eigen::Vector3d kCamera(-0.35, 0.0, 0.45);
 
-/// The points of one rendered table scene on the side of y = `split_y` given by `below`, as an
-/// object view (what segmentation hands over per cluster).
-ObjectView objectOf(const CloudNormal::ConstPtr& scene, double split_y, bool below)
+/// The points of one rendered table scene with y_lo <= y < y_hi, as an object view.
+ObjectView objectBetween(const CloudNormal::ConstPtr& scene, double y_lo, double y_hi)
 {
   CloudNormal::Ptr part(new CloudNormal);
   for (const auto& p : scene->points)
-    if ((p.y < split_y) == below)
+    if (p.y >= y_lo && p.y < y_hi)
       part->push_back(p);
   ObjectView view = synthetic::makeObjectView(part, kCamera);
   view.has_table_plane = true;
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
   return view;
+}
+
+/// The points of one rendered table scene on the side of y = `split_y` given by `below`, as an
+/// object view (what segmentation hands over per cluster).
+ObjectView objectOf(const CloudNormal::ConstPtr& scene, double split_y, bool below)
+{
+  constexpr double kFar = 1e3;
+  return below ? objectBetween(scene, -kFar, split_y) : objectBetween(scene, split_y, kFar);
 }
 
 /// Returns, for every view, what `grasps_for` gives for it.
@@ -189,17 +196,7 @@ TEST(TableGrasps, ThePlannerIsGivenTheNeighboursWithinAHandsReach)
                                              synthetic::makeBox({ 0.0, 0.07, 0.04 }, { 0.04, 0.04, 0.08 }),
                                              synthetic::makeBox({ 0.0, -0.40, 0.04 }, { 0.04, 0.04, 0.08 }) },
                                            { kCamera, 0.002, 0.0, 1 });
-  const auto part = [&](double lo, double hi) {
-    CloudNormal::Ptr cloud(new CloudNormal);
-    for (const auto& p : scene->points)
-      if (p.y >= lo && p.y < hi)
-        cloud->push_back(p);
-    ObjectView view = synthetic::makeObjectView(cloud, kCamera);
-    view.has_table_plane = true;
-    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
-    return view;
-  };
-  const std::vector<ObjectView> views{ part(-0.1, 0.035), part(0.035, 0.2), part(-0.6, -0.1) };
+  const std::vector<ObjectView> views{ objectBetween(scene, -0.1, 0.035), objectBetween(scene, 0.035, 0.2), objectBetween(scene, -0.6, -0.1) };
   std::map<int, std::pair<std::size_t, double>> seen;  // object (by centroid y) -> obstacles, their mean y
   const StubPlanner planner([&](const ObjectView& view) {
     const int key = static_cast<int>(std::lround(centroidOf(view).y() * 100.0));
@@ -240,17 +237,7 @@ TEST(TableGrasps, ARealPlannerFitsItsGraspsBetweenCloseNeighbours)
                                              synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.04, 0.08 }),
                                              synthetic::makeBox({ 0.0, 0.07, 0.04 }, { 0.04, 0.04, 0.08 }) },
                                            { kCamera, 0.002, 0.0, 1 });
-  const auto part = [&](double lo, double hi) {
-    CloudNormal::Ptr cloud(new CloudNormal);
-    for (const auto& p : scene->points)
-      if (p.y >= lo && p.y < hi)
-        cloud->push_back(p);
-    ObjectView view = synthetic::makeObjectView(cloud, kCamera);
-    view.has_table_plane = true;
-    view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
-    return view;
-  };
-  const std::vector<ObjectView> views{ part(-0.035, 0.035), part(-0.2, -0.035), part(0.035, 0.2) };
+  const std::vector<ObjectView> views{ objectBetween(scene, -0.035, 0.035), objectBetween(scene, -0.2, -0.035), objectBetween(scene, 0.035, 0.2) };
   const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
   const auto planner = makeGraspPlanner("fused", config);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
