@@ -51,6 +51,7 @@
 #endif
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <memory>
@@ -195,6 +196,7 @@ private:
       return;
     }
     pending_pose_ = pose;  // the rest of this view's frames are not sent
+    pending_reason_ = "the planner's next view";
     moved_ = true;
   }
 
@@ -243,8 +245,8 @@ private:
         name = object.name;
     ++picks_;
     std::ostringstream line;
-    line << "pick " << picks_ << ": " << name << " (grasp " << std::sqrt(nearest) * 100.0f << " cm from its surface; "
-         << on_table_ << " left)";
+    line << "pick " << picks_ << ": " << name << " (grasp " << std::fixed << std::setprecision(1)
+         << std::sqrt(nearest) * 100.0f << " cm from its surface; " << on_table_ << " left)";
     report(line.str());
     if (on_table_ == 0)
     {
@@ -254,6 +256,7 @@ private:
       return;
     }
     pending_pose_ = scene_.cameras.front().optical_pose;  // back to the scene's view: the next round
+    pending_reason_ = "the scene's view for round " + std::to_string(picks_ + 1);
   }
 
   void moveTo(const Eigen::Isometry3d& pose)
@@ -268,8 +271,8 @@ private:
     next_frame_time_ = ros::WallTime::now();  // the next tick renders the new view
     const Eigen::Vector3d p = pose.translation();
     std::ostringstream line;
-    line << "view " << view_ << ": camera moved to " << (clear_table_ && picks_ > 0 ? "the scene's view" : "the planner's next view")
-         << " (" << p.x() << ", " << p.y() << ", " << p.z() << ") m";
+    line << "view " << view_ << ": camera moved to " << pending_reason_ << " (" << p.x() << ", " << p.y() << ", "
+         << p.z() << ") m";
     report(line.str());
   }
 
@@ -302,6 +305,7 @@ private:
   std::set<std::uint64_t> view_stamps_;
   ros::WallTime next_frame_time_;
   std::optional<Eigen::Isometry3d> pending_pose_;
+  std::string pending_reason_;  // where pending_pose_ comes from, for the status
   ros::Publisher status_pub_;
   ros::Publisher cloud_pub_;
   ros::Subscriber next_view_sub_;
