@@ -235,12 +235,26 @@ std::string objFileProblem(const std::string& path)
   long counts[3] = { 0, 0, 0 };  // v, vt, vn
   for (std::string line; std::getline(file, line);)
   {
+    // Text only: VTK's reader sees "vn\0..." as a normal where a word-by-word count does not
+    // (a heap overflow in vtk2mesh while fuzzing, corpus/mesh_loader/crash_obj_nul_in_keyword).
+    for (const char c : line)
+      if ((static_cast<unsigned char>(c) < 0x20 && c != '\t' && c != '\r') || c == 0x7f)
+        return "holds a control byte (an OBJ file is text)";
     std::istringstream words(line);
     std::string keyword;
     words >> keyword;
     counts[0] += keyword == "v";
     counts[1] += keyword == "vt";
     counts[2] += keyword == "vn";
+    if (keyword == "v" || keyword == "vn")
+    {
+      // x y z (a vertex may carry w or a colour after them)
+      std::size_t numbers = 0;
+      for (double value = 0.0; words >> value;)
+        ++numbers;
+      if (numbers < 3)
+        return "'" + keyword + "' line with " + std::to_string(numbers) + " number(s): " + line.substr(0, 40);
+    }
     if (keyword == "f")
       lines.push_back(line);
   }
