@@ -335,10 +335,10 @@ TEST(XtionRenderer, StlFormatIsDecidedBeforeVtkReadsIt)
   EXPECT_NE(error.find("nor a binary one (684 bytes, not 84 + 50 x the 13 triangles"), std::string::npos) << error;
 }
 
-/// `text` as the OBJ file <temp>/<name>.obj; its path.
-std::string writeObj(const std::string& name, const std::string& text)
+/// `text` as the file <temp>/<file_name>; its path.
+std::string writeMeshFile(const std::string& file_name, const std::string& text)
 {
-  const std::string path = ::testing::TempDir() + "/" + name + ".obj";
+  const std::string path = ::testing::TempDir() + "/" + file_name;
   std::ofstream(path) << text;
   return path;
 }
@@ -350,19 +350,41 @@ TEST(XtionRenderer, ObjFaceIndicesAreCheckedBeforeVtkReadsThem)
   TriangleMesh mesh;
   std::string error;
   const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
-  EXPECT_FALSE(loadMeshFile(writeObj("texture_without_vt", vertices + "f 1 2/1 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("texture_without_vt.obj", vertices + "f 1 2/1 3\n"), mesh, error));
   EXPECT_NE(error.find("face vertex '2/1' names texture coordinate 1 of 0"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(writeObj("empty_texture", vertices + "f 1 2/ 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("empty_texture.obj", vertices + "f 1 2/ 3\n"), mesh, error));
   EXPECT_NE(error.find("is not v, v/vt, v/vt/vn or v//vn"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(writeObj("vertex_out_of_range", vertices + "f 1 2 4\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("vertex_out_of_range.obj", vertices + "f 1 2 4\n"), mesh, error));
   EXPECT_NE(error.find("names vertex 4 of 3"), std::string::npos) << error;
-  ASSERT_TRUE(loadMeshFile(writeObj("with_texture", vertices + "vt 0 0\nvt 1 0\nf 1/1 2/2 3/1\n"), mesh, error)) << error;
+  ASSERT_TRUE(loadMeshFile(writeMeshFile("with_texture.obj", vertices + "vt 0 0\nvt 1 0\nf 1/1 2/2 3/1\n"), mesh, error)) << error;
   EXPECT_EQ(mesh.triangles.size(), 1u);
   error.clear();
   // The fuzzer's file is refused before VTK reads it (since session 15 already for its short
   // vertex lines, which come before the face).
   EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_obj_texture_index_without_vt", "fuzzed.obj"), mesh, error));
   EXPECT_NE(error.find("fuzzed.obj"), std::string::npos) << error;
+}
+
+TEST(XtionRenderer, PlyListsOutsideTheFaceElementAreRefusedBeforePclReadsThem)
+{
+  // PCL's PLYReader asserts (aborts the process) on a list property of the vertex element.
+  TriangleMesh mesh;
+  std::string error;
+  const std::string vertex = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\n";
+  const std::string body = "0 0 0\n0.1 0 0\n0 0.1 0\n3 0 1 2\n";
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("list_on_vertex.ply", vertex + "property list uchar int vertex_indices\nend_header\n" + body),
+                            mesh, error));
+  EXPECT_NE(error.find("a list property in element 'vertex'"), std::string::npos) << error;
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("no_end.ply", vertex), mesh, error));
+  EXPECT_NE(error.find("no end_header"), std::string::npos) << error;
+  error.clear();
+  EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_ply_list_on_vertex", "fuzzed.ply"), mesh, error));
+  EXPECT_NE(error.find("a list property in element 'vertex'"), std::string::npos) << error;
+  ASSERT_TRUE(loadMeshFile(writeMeshFile("triangle.ply", vertex + "element face 1\nproperty list uchar int vertex_indices\nend_header\n" + body),
+                           mesh, error))
+      << error;
+  EXPECT_EQ(mesh.triangles.size(), 1u);
 }
 
 TEST(XtionRenderer, ObjNormalsNoFaceNamesMustBeOnePerVertex)
@@ -373,10 +395,10 @@ TEST(XtionRenderer, ObjNormalsNoFaceNamesMustBeOnePerVertex)
   TriangleMesh mesh;
   std::string error;
   const std::string vertices = "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\n";
-  EXPECT_FALSE(loadMeshFile(writeObj("one_loose_normal", vertices + "vn 0 0 1\nf 1 2 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("one_loose_normal.obj", vertices + "vn 0 0 1\nf 1 2 3\n"), mesh, error));
   EXPECT_NE(error.find("1 normal(s) for 3 vertices"), std::string::npos) << error;
-  ASSERT_TRUE(loadMeshFile(writeObj("named_normal", vertices + "vn 0 0 1\nf 1//1 2//1 3//1\n"), mesh, error)) << error;
-  ASSERT_TRUE(loadMeshFile(writeObj("normal_per_vertex", vertices + "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1 2 3\n"), mesh, error))
+  ASSERT_TRUE(loadMeshFile(writeMeshFile("named_normal.obj", vertices + "vn 0 0 1\nf 1//1 2//1 3//1\n"), mesh, error)) << error;
+  ASSERT_TRUE(loadMeshFile(writeMeshFile("normal_per_vertex.obj", vertices + "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1 2 3\n"), mesh, error))
       << error;
   EXPECT_EQ(mesh.triangles.size(), 1u);
   error.clear();
@@ -388,11 +410,11 @@ TEST(XtionRenderer, ObjNormalsNoFaceNamesMustBeOnePerVertex)
     EXPECT_NE(error.find("fuzzed.obj"), std::string::npos) << error;
   }
   // The rerun's find: "vn\0..." is a normal to VTK, not to a word count; and short v/vn lines.
-  EXPECT_FALSE(loadMeshFile(writeObj("nul_keyword", vertices + std::string("vn\0 0 1\n", 9) + "f 1 2 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("nul_keyword.obj", vertices + std::string("vn\0 0 1\n", 9) + "f 1 2 3\n"), mesh, error));
   EXPECT_NE(error.find("control byte"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(writeObj("short_vertex", "v 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("short_vertex.obj", "v 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n"), mesh, error));
   EXPECT_NE(error.find("'v' line with 2 number(s)"), std::string::npos) << error;
-  EXPECT_FALSE(loadMeshFile(writeObj("short_normal", vertices + "vn 0\nf 1//1 2//1 3//1\n"), mesh, error));
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("short_normal.obj", vertices + "vn 0\nf 1//1 2//1 3//1\n"), mesh, error));
   EXPECT_NE(error.find("'vn' line with 1 number(s)"), std::string::npos) << error;
 }
 
