@@ -376,6 +376,11 @@ TEST(XtionRenderer, PlyListsOutsideTheFaceElementAreRefusedBeforePclReadsThem)
   EXPECT_FALSE(loadMeshFile(writeMeshFile("list_on_vertex.ply", vertex + "property list uchar int vertex_indices\nend_header\n" + body),
                             mesh, error));
   EXPECT_NE(error.find("a list property in element 'vertex'"), std::string::npos) << error;
+  EXPECT_FALSE(loadMeshFile(writeMeshFile("negative_count.ply", vertex + "element face -5\nend_header\n" + body), mesh,
+                            error));
+  EXPECT_NE(error.find("element 'face' has count '-5'"), std::string::npos) << error;
+  EXPECT_FALSE(loadMeshFile(meshFromCorpus("crash_ply_negative_count", "fuzzed_count.ply"), mesh, error));
+  EXPECT_NE(error.find("has count '-5'"), std::string::npos) << error;
   EXPECT_FALSE(loadMeshFile(writeMeshFile("no_end.ply", vertex), mesh, error));
   EXPECT_NE(error.find("no end_header"), std::string::npos) << error;
   error.clear();

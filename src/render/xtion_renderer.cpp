@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <numeric>
@@ -304,6 +305,10 @@ std::string plyFileProblem(const std::string& path)
   std::ifstream file(path, std::ios::binary);
   if (!file)
     return "cannot open it";
+  std::error_code size_error;
+  const auto file_bytes = static_cast<unsigned long long>(std::filesystem::file_size(path, size_error));
+  if (size_error)
+    return "cannot read its size";
   std::string element;
   for (std::string line; std::getline(file, line);)
   {
@@ -313,7 +318,16 @@ std::string plyFileProblem(const std::string& path)
     if (keyword == "end_header")
       return "";
     if (keyword == "element")
-      words >> element;
+    {
+      // A count PCL reserves for inside a noexcept callback: "-5" wraps to 2^64 - 5 and the
+      // length_error terminates the process (corpus/mesh_loader/crash_ply_negative_count).
+      std::string count;
+      words >> element >> count;
+      char* end = nullptr;
+      const long long n = std::strtoll(count.c_str(), &end, 10);
+      if (count.empty() || *end != '\0' || n < 0 || static_cast<unsigned long long>(n) > file_bytes)
+        return "element '" + element + "' has count '" + count + "' (a whole number, at most the file's size)";
+    }
     else if (keyword == "property")
     {
       std::string type;
