@@ -51,59 +51,68 @@ GraspSceneClouds ObjectSceneClouds::clouds() const
   return c;
 }
 
-ObjectSceneClouds sceneForObject(const TableSceneClouds& table, std::uint32_t label)
+TableObjectClouds splitTableObjects(const TableSceneClouds& table)
+{
+  TableObjectClouds out;
+  if (!table.objects)
+    return out;
+  for (const auto& p : table.objects->points)
+  {
+    if (!finite(p))
+      continue;
+    auto it = std::find(out.labels.begin(), out.labels.end(), p.label);
+    if (it == out.labels.end())
+    {
+      out.labels.push_back(p.label);
+      out.points.emplace_back();
+      it = out.labels.end() - 1;
+    }
+    out.points[static_cast<std::size_t>(it - out.labels.begin())].push_back(pcl::PointXYZ(p.x, p.y, p.z));
+  }
+  out.unseen.resize(out.points.size());
+  if (!table.sensor_origins.empty())
+    for (std::size_t i = 0; i < out.points.size(); ++i)
+    {
+      const UnseenPart hidden = buildUnseenPart(out.points[i], table.sensor_origins, table.unseen, table.table_plane);
+      if (hidden.ok())
+        out.unseen[i] = hidden.points;
+    }
+  return out;
+}
+
+ObjectSceneClouds sceneForObject(const TableSceneClouds& table, const TableObjectClouds& objects,
+                                 std::uint32_t label)
 {
   ObjectSceneClouds out;
   out.table_plane = table.table_plane;
-  // Every object's points, by label (finite only).
-  std::vector<std::uint32_t> labels;
-  std::unordered_set<PointBits, PointBitsHash> chosen;
-  std::vector<pcl::PointCloud<pcl::PointXYZ>> others;
-  if (table.objects)
+  const auto it = std::find(objects.labels.begin(), objects.labels.end(), label);
+  const std::size_t chosen = static_cast<std::size_t>(it - objects.labels.begin());  // == size: none
+  std::unordered_set<PointBits, PointBitsHash> chosen_bits;
+  if (chosen < objects.labels.size())
   {
-    for (const auto& p : table.objects->points)
-    {
-      if (!finite(p))
-        continue;
-      if (p.label == label)
-      {
-        out.object.push_back(pcl::PointXYZ(p.x, p.y, p.z));
-        chosen.insert(bitsOf(p));
-        continue;
-      }
-      auto it = std::find(labels.begin(), labels.end(), p.label);
-      if (it == labels.end())
-      {
-        labels.push_back(p.label);
-        others.emplace_back();
-        it = labels.end() - 1;
-      }
-      others[static_cast<std::size_t>(it - labels.begin())].push_back(pcl::PointXYZ(p.x, p.y, p.z));
-    }
+    out.object = objects.points[chosen];
+    out.unseen = objects.unseen[chosen];
+    for (const auto& p : out.object.points)
+      chosen_bits.insert(bitsOf(p));
   }
   if (table.scene)
     for (const auto& p : table.scene->points)
-      if (finite(p) && chosen.count(bitsOf(p)) == 0)
+      if (finite(p) && chosen_bits.count(bitsOf(p)) == 0)
         out.scene.push_back(p);
   // The other objects: their seen points (the target's are not in ~scene; the rest are twice,
   // which only sets the same voxels again) and the space hidden behind them.
-  for (const auto& cloud : others)
-  {
-    out.scene += cloud;
-    if (!table.sensor_origins.empty())
+  for (std::size_t i = 0; i < objects.labels.size(); ++i)
+    if (i != chosen)
     {
-      const UnseenPart hidden = buildUnseenPart(cloud, table.sensor_origins, table.unseen, table.table_plane);
-      if (hidden.ok())
-        out.scene += hidden.points;
+      out.scene += objects.points[i];
+      out.scene += objects.unseen[i];
     }
-  }
-  if (!out.object.empty() && !table.sensor_origins.empty())
-  {
-    const UnseenPart hidden = buildUnseenPart(out.object, table.sensor_origins, table.unseen, table.table_plane);
-    if (hidden.ok())
-      out.unseen = hidden.points;
-  }
   return out;
+}
+
+ObjectSceneClouds sceneForObject(const TableSceneClouds& table, std::uint32_t label)
+{
+  return sceneForObject(table, splitTableObjects(table), label);
 }
 
 TableGraspPlanResult planTableGraspMotion(RobotCollision& collision, const Eigen::VectorXd& start,
@@ -134,6 +143,7 @@ TableGraspPlanResult planTableGraspMotion(RobotCollision& collision, const Eigen
     if (std::find(order.begin(), order.end(), id) == order.end())
       order.push_back(id);
 
+  const TableObjectClouds objects = splitTableObjects(table);
   for (const std::uint32_t id : order)
   {
     const double left_s = params.total_time_budget_s - clock.elapsedSeconds();
@@ -150,7 +160,7 @@ TableGraspPlanResult planTableGraspMotion(RobotCollision& collision, const Eigen
         own.push_back(grasps[i]);
         index.push_back(static_cast<int>(i));
       }
-    const ObjectSceneClouds scene = sceneForObject(table, id);
+    const ObjectSceneClouds scene = sceneForObject(table, objects, id);
     const std::string note = buildGraspScene(collision, start, scene.clouds(), params);
     GraspExecutionParams within = params;
     within.total_time_budget_s = left_s;

@@ -58,6 +58,8 @@ ObjectExtent objectExtent(const ObjectView& view)
   }
   e.height_m = std::max(top, 1e-3f);
   e.max_extent_m = std::max((hi - lo).maxCoeff(), 1e-3f);
+  e.box_min = lo;
+  e.box_max = hi;
 
   // Footprint: 2-D PCA of the points in the table plane.
   const auto [e1, e2] = tablePlaneBasis(e.up);

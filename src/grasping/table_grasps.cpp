@@ -119,17 +119,11 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     // The planner's own hand check keeps out of the neighbours (those within reach): its best
     // grasps are then ones that fit among them, not ones the sweep below would all drop.
     ObjectView view = views[i];
-    if (view.cloud && !view.cloud->empty())
+    const ObjectExtent extent = view.cloud ? objectExtent(view) : ObjectExtent{};
+    if (extent.max_extent_m > 0.0f)
     {
-      Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max()), hi = -lo;
-      for (const auto& p : view.cloud->points)
-        if (p.getVector3fMap().allFinite())
-        {
-          lo = lo.cwiseMin(p.getVector3fMap());
-          hi = hi.cwiseMax(p.getVector3fMap());
-        }
-      lo.array() -= reach;
-      hi.array() += reach;
+      const Eigen::Vector3f lo = extent.box_min.array() - reach;
+      const Eigen::Vector3f hi = extent.box_max.array() + reach;
       auto near = std::make_shared<CloudXYZ>();
       for (std::size_t j = 0; j < views.size(); ++j)
         if (j != i)
@@ -142,7 +136,6 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     object.result = planner.plan(view, gripper);
     if (views[i].cloud)
     {
-      const ObjectExtent extent = objectExtent(views[i]);
       object.top_height_m = extent.height_m;
       object.centroid = extent.centroid;
       object.base_distance_m = extent.centroid.norm();

@@ -42,6 +42,21 @@ struct ObjectSceneClouds
   /// Pointers into this struct: keep it alive while they are used.
   GraspSceneClouds clouds() const;
 };
+
+/// Each labelled object's finite points and the space hidden behind it, split from one frame
+/// once: the scene of every object tried is assembled from them (n unseen parts per frame, not
+/// n per object tried).
+struct TableObjectClouds
+{
+  std::vector<std::uint32_t> labels;  // in the order they first appear in `objects`
+  std::vector<pcl::PointCloud<pcl::PointXYZ>> points;
+  std::vector<pcl::PointCloud<pcl::PointXYZ>> unseen;  // empty without sensor origins
+};
+TableObjectClouds splitTableObjects(const TableSceneClouds& table);
+
+ObjectSceneClouds sceneForObject(const TableSceneClouds& table, const TableObjectClouds& objects,
+                                 std::uint32_t label);
+/// One object's scene straight from the frame (splits it first).
 ObjectSceneClouds sceneForObject(const TableSceneClouds& table, std::uint32_t label);
 
 struct TableGraspPlanResult

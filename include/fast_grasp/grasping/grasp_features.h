@@ -22,7 +22,9 @@ struct ObjectExtent
 {
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
   float height_m = 0.0f;      // highest point above the table (or above the lowest point)
-  float max_extent_m = 0.0f;  // largest side of the axis-aligned bounding box
+  float max_extent_m = 0.0f;  // largest side of the axis-aligned bounding box (0: no finite point)
+  Eigen::Vector3f box_min = Eigen::Vector3f::Zero();  // the axis-aligned bounding box's corners
+  Eigen::Vector3f box_max = Eigen::Vector3f::Zero();
   Eigen::Vector3f up = Eigen::Vector3f::UnitZ();  // away from the table (against gravity)
   float table_offset = 0.0f;  // height above table = up . p + table_offset
   /// Footprint on the table: the seen points' major horizontal axis (2-D PCA in the table
