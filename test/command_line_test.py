@@ -10,7 +10,7 @@ import unittest
 BIN_DIR = None
 HERE = os.path.dirname(os.path.abspath(__file__))
 EXECUTABLES = ["grasp_offline", "arm_offline", "render_bag", "scene_camera", "bench_ik", "bench_planners",
-               "bench_perception", "bench_segmentation", "bench_grasps", "bench_grasp_motions"]
+               "bench_perception", "bench_segmentation", "bench_grasps", "bench_grasp_motions", "bench_clutter"]
 SCRIPTS = ["evaluate_grasps_physics.py", "evaluate_clutter_physics.py", "make_clutter_scenes.py", "evaluate_grasps.py",
            "ompl_benchmark_db.py", "count_test_results.py", "soak.py"]
 SHELL_SCRIPTS = ["soak.sh", "fuzz.sh", "build_sanitized.sh", "sanitizer_tests.sh"]

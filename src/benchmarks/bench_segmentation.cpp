@@ -3,10 +3,12 @@
 //
 // Input: the mOSD learn set (../shared/data/mosd-learn, not in the repository: organised
 // 640x480 PCDs with fields label x y z rgba; labels 1-9 table, label / 10 = object id). Per
-// scene the cloud is down-sampled as the deployed pipeline does (5 mm; pcl::UniformSampling, so
-// every kept point is a real one and keeps its label), the table up axis is taken from the
-// table-labelled points (the scenes give no camera pose), and segmentTable() runs with the
-// deployed parameters of config/perception.yaml. Each labelled object is matched to the
+// scene the timed work is what the deployed pipeline does to a frame: preprocessCloud (every
+// 2nd row and column, 5 mm voxel grid; --sampling deployed, the default) and segmentTable()
+// with the deployed parameters of config/perception.yaml. Each voxel takes the label most of
+// the sampled pixels in it carry (not timed). --sampling uniform reads every pixel and keeps
+// one real point per 5 mm (pcl::UniformSampling, sessions 7-15's protocol). The table up axis
+// is taken from the table-labelled points (the scenes give no camera pose). Each labelled object is matched to the
 // cluster holding most of its points: "right" when that cluster's precision >= 0.9 and the
 // object's recall >= 0.8, "merged" when the precision is lower (the cluster holds other
 // objects), "split" otherwise. Objects with fewer than --min-points down-sampled points are
@@ -20,6 +22,7 @@
 // Last line: `segmentation: right P % (fits: Q %) merged M % split S % median X ms per frame`.
 #include "bench_stats.h"
 #include "command_line.h"
+#include "fast_grasp/perception/cloud_preprocess.h"
 #include "fast_grasp/perception/concave_split.h"
 #include "fast_grasp/perception/table_segmentation.h"
 
@@ -38,6 +41,7 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <unordered_map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -192,6 +196,70 @@ void writeLabelImage(const std::string& path, const LabelledCloud& sampled, cons
   std::fclose(out);
 }
 
+/// The voxel of a point as pcl::VoxelGrid indexes it (floor of coordinate times the inverse leaf).
+std::int64_t voxelKey(const Eigen::Vector3f& p, float inverse_leaf)
+{
+  const auto cell = [&](float v) { return static_cast<std::int64_t>(std::floor(v * inverse_leaf)) & 0x1fffff; };
+  return (cell(p.x()) << 42) | (cell(p.y()) << 21) | cell(p.z());
+}
+
+/// What the deployed pipeline does to a frame, timed: preprocessCloud on the organised cloud
+/// (identity transform: the scene stays in the camera frame; no reach crop) and segmentTable.
+/// Each voxel point then gets the label most sampled pixels in its voxel carry (not timed).
+fast_grasp::TableSegmentationResult segmentDeployed(const LabelledCloud& raw,
+                                                    const fast_grasp::TableSegmentationParams& params,
+                                                    LabelledCloud& labelled, double& ms, double& preprocess_ms)
+{
+  pcl::PointCloud<pcl::PointXYZRGB> frame;  // what the camera driver gives (not timed)
+  frame.width = raw.width;
+  frame.height = raw.height;
+  frame.is_dense = false;
+  frame.points.resize(raw.size());
+  for (std::size_t i = 0; i < raw.size(); ++i)
+  {
+    frame.points[i].x = raw.points[i].x;
+    frame.points[i].y = raw.points[i].y;
+    frame.points[i].z = raw.points[i].z;
+  }
+  fast_grasp::PreprocessParams preprocess;  // config/perception.yaml's stride and leaf
+  preprocess.reach_m = 1e3;
+  const auto start = std::chrono::steady_clock::now();
+  const fast_grasp::PreprocessResult sampled = fast_grasp::preprocessCloud(frame, Eigen::Isometry3f::Identity(), preprocess);
+  preprocess_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  fast_grasp::TableSegmentationResult result;
+  if (sampled.ok)
+    result = fast_grasp::segmentTable(sampled.cloud, params);
+  ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  labelled.clear();
+  if (!sampled.ok)
+    return result;
+  const float inverse_leaf = 1.0f / static_cast<float>(preprocess.leaf_size_m);
+  std::unordered_map<std::int64_t, std::map<std::uint32_t, int>> votes;
+  const std::size_t stride = sampled.sampling_stride;
+  for (std::size_t row = 0; row < raw.height; row += stride)
+    for (std::size_t col = 0; col < raw.width; col += stride)
+    {
+      const auto& p = raw.at(static_cast<int>(col), static_cast<int>(row));
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+        ++votes[voxelKey(p.getVector3fMap(), inverse_leaf)][p.label];
+    }
+  for (const auto& p : sampled.cloud->points)
+  {
+    pcl::PointXYZRGBL q;
+    q.x = p.x;
+    q.y = p.y;
+    q.z = p.z;
+    q.label = 0;
+    const auto it = votes.find(voxelKey(p.getVector3fMap(), inverse_leaf));
+    if (it != votes.end())
+      q.label = std::max_element(it->second.begin(), it->second.end(),
+                                 [](const auto& a, const auto& b) { return a.second < b.second; })
+                    ->first;
+    labelled.push_back(q);
+  }
+  return result;
+}
+
 struct Counts
 {
   int objects = 0, right = 0, merged = 0, split = 0;
@@ -212,6 +280,8 @@ int main(int argc, char** argv)
       "  --opening M       gripper opening for the 'fits' count (default 0.085)\n"
       "  --scenes LIST     only these scenes\n"
       "  --dump-dir DIR    write DIR/<scene>.ppm: labels (left) and clusters (right) in the image\n"
+      "  --sampling S      deployed (preprocessCloud: every 2nd pixel, 5 mm voxel grid; default) or uniform\n"
+      "                    (every pixel, one real point per 5 mm: pcl::UniformSampling)\n"
       "  --method M        concave (the pipeline's: Euclidean clusters cut at concave creases, default),\n"
       "                    euclidean (Euclidean clusters only) or lccp (experiment: PCL's LCCP over the\n"
       "                    Euclidean clusters, --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n"
@@ -227,6 +297,7 @@ int main(int argc, char** argv)
   std::set<std::string> only;
   std::string split = "all";
   std::string method = "concave";
+  std::string sampling = "deployed";
   fast_grasp::TableSegmentationParams params;  // config/perception.yaml's values
   float seed_m = 0.03f, concavity_deg = 10.0f;
   std::string dump_dir;
@@ -248,6 +319,12 @@ int main(int argc, char** argv)
     }
     else if (flag == "--method")
       method = value;
+    else if (flag == "--sampling")
+    {
+      sampling = value;
+      if (sampling != "deployed" && sampling != "uniform")
+        fast_grasp::exitWithUsage("--sampling: '" + sampling + "' is none of deployed, uniform", kUsage);
+    }
     else if (flag == "--tolerance-rad")
       params.concave_split.concave_tolerance_rad = std::stod(value);
     else if (flag == "--link-radius-m")
@@ -318,6 +395,8 @@ int main(int argc, char** argv)
     fast_grasp::exitWithUsage("--method: '" + method + "' is none of concave, euclidean, lccp", kUsage);
   Counts total;
   std::vector<double> frame_ms;
+  // Of frame_ms (--sampling deployed): preprocessCloud, the table's RANSAC, the clusters.
+  std::vector<double> preprocess_frame_ms, ransac_frame_ms, clustering_frame_ms;
   std::printf("%-10s %7s %5s %5s %6s %5s %8s\n", "scene", "objects", "right", "merged", "split", "fits", "ms");
   for (const std::string& file : files)
   {
@@ -328,25 +407,42 @@ int main(int argc, char** argv)
       continue;
     }
     params.up_axis = tableUp(*raw);  // ground truth stands in for the camera pose: not timed
-    const auto start = std::chrono::steady_clock::now();
-    // Down-sample as the pipeline does, keeping real points (and so their labels).
-    LabelledCloud::Ptr finite(new LabelledCloud);
-    for (const auto& p : raw->points)
-      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-        finite->push_back(p);
-    pcl::UniformSampling<pcl::PointXYZRGBL> sampling;
-    sampling.setInputCloud(finite);
-    sampling.setRadiusSearch(0.005);
     LabelledCloud sampled;
-    sampling.filter(sampled);
-    fast_grasp::CloudXYZ::Ptr xyz(new fast_grasp::CloudXYZ);
-    xyz->reserve(sampled.size());
-    for (const auto& p : sampled.points)
-      xyz->push_back(pcl::PointXYZ(p.x, p.y, p.z));
-    fast_grasp::TableSegmentationResult result = fast_grasp::segmentTable(xyz, params);
+    fast_grasp::TableSegmentationResult result;
+    double ms = 0.0;
+    fast_grasp::CloudXYZ xyz;  // the segmented points, for lccp
+    if (sampling == "deployed")
+    {
+      double preprocess_ms = 0.0;
+      result = segmentDeployed(*raw, params, sampled, ms, preprocess_ms);
+      preprocess_frame_ms.push_back(preprocess_ms);
+      ransac_frame_ms.push_back(1e3 * result.ransac_time_s);
+      clustering_frame_ms.push_back(1e3 * result.clustering_time_s);
+      for (const auto& p : sampled.points)
+        xyz.push_back(pcl::PointXYZ(p.x, p.y, p.z));
+    }
+    else
+    {
+      const auto start = std::chrono::steady_clock::now();
+      // One real point per 5 mm voxel, so every point keeps its label.
+      LabelledCloud::Ptr finite(new LabelledCloud);
+      for (const auto& p : raw->points)
+        if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+          finite->push_back(p);
+      pcl::UniformSampling<pcl::PointXYZRGBL> uniform;
+      uniform.setInputCloud(finite);
+      uniform.setRadiusSearch(0.005);
+      uniform.filter(sampled);
+      fast_grasp::CloudXYZ::Ptr cloud(new fast_grasp::CloudXYZ);
+      cloud->reserve(sampled.size());
+      for (const auto& p : sampled.points)
+        cloud->push_back(pcl::PointXYZ(p.x, p.y, p.z));
+      result = fast_grasp::segmentTable(cloud, params);
+      ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      xyz = *cloud;
+    }
     if (method == "lccp")
-      result.clusters = lccpClusters(*xyz, result.clusters, seed_m, concavity_deg);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      result.clusters = lccpClusters(xyz, result.clusters, seed_m, concavity_deg);
     frame_ms.push_back(ms);
 
     // Ground truth: object id per sampled point.
@@ -418,6 +514,9 @@ int main(int argc, char** argv)
   std::printf("split %s: %d scenes, %d labelled objects (%d fit the %.3f m opening)\n", split.c_str(), static_cast<int>(frame_ms.size()),
               total.objects, total.fit_objects, opening);
   std::printf("clusters: %d, of them %d mostly not object points (spurious)\n", total.clusters, total.spurious);
+  if (!preprocess_frame_ms.empty())
+    std::printf("medians: preprocessCloud %.1f ms, table RANSAC %.1f ms, clusters %.1f ms\n",
+                median(preprocess_frame_ms), median(ransac_frame_ms), median(clustering_frame_ms));
   std::printf("segmentation: right %.0f %% (fits: %.0f %%) merged %.0f %% split %.0f %% median %.1f ms per frame\n",
               pct(total.right, total.objects), pct(total.fit_right, total.fit_objects), pct(total.merged, total.objects),
               pct(total.split, total.objects), median(frame_ms));
