@@ -786,6 +786,89 @@ TEST(TableSegmentation, TouchingObjectsAreCutAtTheirConcaveCrease)
   EXPECT_EQ(result.clusters.size(), 2u);
 }
 
+TEST(TableSegmentation, AnObjectAnotherHidesInTheMiddleIsOneClusterAndASeenGapKeepsTwo)
+{
+  // The camera looks along +x over a narrow tall box standing in front of what lies behind it.
+  const Eigen::Vector3f eye(0.0f, 0.0f, 0.5f);
+  // Keeps the points of `back` that no point of `front` covers (within 5 mm of the line of sight).
+  auto visible = [&](const CloudXYZ& back, const CloudXYZ& front) {
+    CloudXYZ seen;
+    for (const auto& p : back.points)
+    {
+      const Eigen::Vector3f ray = p.getVector3fMap() - eye;
+      const bool hidden = std::any_of(front.points.begin(), front.points.end(), [&](const PointXYZ& o) {
+        const float along = (o.getVector3fMap() - eye).dot(ray) / ray.squaredNorm();
+        return along > 0.0f && along < 0.99f && (eye + along * ray - o.getVector3fMap()).norm() < 0.005f;
+      });
+      if (!hidden)
+        seen.push_back(p);
+    }
+    return seen;
+  };
+  // bounds: [0] end of the table, then the end of each back object; the occluder comes last.
+  auto scene = [&](const std::vector<std::pair<float, Eigen::Vector3f>>& back_boxes, float occluder_width_m,
+                   std::vector<std::size_t>& bounds) {
+    std::mt19937 rng(5);
+    CloudXYZ occluder, table;
+    addBox(occluder, Eigen::Vector2f(0.45f, 0.0f), 0.0f, Eigen::Vector3f(0.04f, occluder_width_m, 0.25f), 0.005f, rng, eye);
+    std::vector<CloudXYZ> backs;
+    CloudXYZ all_objects = occluder;
+    for (const auto& [y, size] : back_boxes)
+    {
+      CloudXYZ box;
+      addBox(box, Eigen::Vector2f(0.7f, y), 0.0f, size, 0.005f, rng, eye);
+      backs.push_back(visible(box, occluder));
+      all_objects += box;
+    }
+    addPatch(table, Eigen::Vector3f(0.3f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.6f,
+             0.005f, 0.001f, rng);
+    auto cloud = std::make_shared<CloudXYZ>(visible(table, all_objects));
+    bounds.assign(1, cloud->size());
+    for (const CloudXYZ& back : backs)
+    {
+      *cloud += back;
+      bounds.push_back(cloud->size());
+    }
+    *cloud += occluder;
+    finish(*cloud);
+    aimCamera(*cloud, eye, Eigen::Vector3f(0.6f, 0.0f, 0.05f));
+    return cloud;
+  };
+  TableSegmentationParams params;
+  params.join_occluded_pieces = true;
+  TableSegmentationParams separate = params;
+  separate.join_occluded_pieces = false;
+
+  // A 16 cm wide box behind a 4 cm wide one: its middle 6 cm are hidden, left and right show.
+  std::vector<std::size_t> bounds;
+  const auto hidden_middle = scene({ { 0.0f, Eigen::Vector3f(0.06f, 0.16f, 0.08f) } }, 0.04f, bounds);
+  TableSegmentationResult result = segmentTable(hidden_middle, separate);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 3u) << "Euclidean clusters: the occluder and the back box's two visible pieces";
+  result = segmentTable(hidden_middle, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 2u);
+  EXPECT_TRUE(comesOutAlone(result, bounds[0], bounds[1])) << "the hidden box is one cluster";
+
+  // Two 5 cm boxes 6 cm apart behind a 2 cm wide box: the camera sees the table between them.
+  const auto seen_gap = scene({ { -0.055f, Eigen::Vector3f(0.06f, 0.05f, 0.08f) },
+                                { 0.055f, Eigen::Vector3f(0.06f, 0.05f, 0.08f) } },
+                              0.02f, bounds);
+  result = segmentTable(seen_gap, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 3u);
+  EXPECT_TRUE(comesOutAlone(result, bounds[0], bounds[1])) << "left box";
+  EXPECT_TRUE(comesOutAlone(result, bounds[1], bounds[2])) << "right box";
+
+  // Two boxes whose gap the occluder hides, but whose tops differ by 4 cm: two objects.
+  const auto other_heights = scene({ { -0.055f, Eigen::Vector3f(0.06f, 0.05f, 0.08f) },
+                                     { 0.055f, Eigen::Vector3f(0.06f, 0.05f, 0.04f) } },
+                                   0.04f, bounds);
+  result = segmentTable(other_heights, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 3u);
+}
+
 TEST(TableSegmentation, BadInputAndMissingPartsGiveTypedFailures)
 {
   std::mt19937 rng(5);

@@ -75,6 +75,13 @@ std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
   pnh.param("bottom_band_m", params_.concave_split.bottom_band_m, params_.concave_split.bottom_band_m);
   pnh.param("floating_seen_fraction", params_.concave_split.floating_seen_fraction, params_.concave_split.floating_seen_fraction);
   pnh.param("table_cell_m", params_.concave_split.table_cell_m, params_.concave_split.table_cell_m);
+  pnh.param("join_occluded_pieces", params_.join_occluded_pieces, params_.join_occluded_pieces);
+  pnh.param("occlusion_max_gap_m", params_.occlusion_join.max_gap_m, params_.occlusion_join.max_gap_m);
+  pnh.param("occlusion_max_top_difference_m", params_.occlusion_join.max_top_difference_m,
+            params_.occlusion_join.max_top_difference_m);
+  pnh.param("occlusion_sample_step_m", params_.occlusion_join.sample_step_m, params_.occlusion_join.sample_step_m);
+  pnh.param("occlusion_hidden_margin_m", params_.occlusion_join.hidden_margin_m, params_.occlusion_join.hidden_margin_m);
+  pnh.param("occlusion_angular_cell", params_.occlusion_join.angular_cell, params_.occlusion_join.angular_cell);
   pnh.param("merge_stacked_clusters", params_.merge_stacked_clusters, params_.merge_stacked_clusters);
   pnh.param("stacked_overlap_fraction", params_.stacked_overlap_fraction, params_.stacked_overlap_fraction);
   pnh.param("max_input_points", max_input_points_, max_input_points_);

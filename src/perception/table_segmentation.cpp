@@ -93,6 +93,11 @@ std::string validateParams(const TableSegmentationParams& params)
       !(params.concave_split.table_cell_m > 0.0))
     return "concave split: need k_neighbours >= 3, link_radius_m > 0, concave_tolerance_rad in (0, pi), "
            "min_piece_points >= 1, bend_samples >= 0, table_cell_m > 0";
+  const OcclusionJoinParams& join = params.occlusion_join;
+  if (!(join.max_gap_m >= 0.0 && join.max_gap_m <= 10.0) || !(join.max_top_difference_m >= 0.0) ||
+      !(join.sample_step_m >= 1e-4) || !(join.hidden_margin_m >= 0.0) || !(join.angular_cell >= 1e-4 && join.angular_cell <= 1.0))
+    return "occlusion join: need max_gap_m in [0, 10], max_top_difference_m >= 0, sample_step_m >= 1e-4, "
+           "hidden_margin_m >= 0, angular_cell in [1e-4, 1]";
   if (!(params.stacked_overlap_fraction > 0.0 && params.stacked_overlap_fraction <= 1.0))
     return "stacked_overlap_fraction must be in (0, 1]";
   if (!params.reference_point_m.allFinite() || !params.target_point_m.allFinite())
@@ -321,6 +326,17 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
     gap_group.clear();
     for (const auto& piece : result.clusters)
       gap_group.push_back(euclidean_of[static_cast<std::size_t>(piece.indices.front())]);
+  }
+  if (params.join_occluded_pieces && result.clusters.size() >= 3)
+  {
+    std::vector<int> joined_into;
+    result.clusters = joinOccludedPieces(*cloud, result.clusters, cloud->sensor_origin_.head<3>(),
+                                         cloud->sensor_orientation_, plane, params.occlusion_join, &joined_into);
+    std::vector<int> joined_group(result.clusters.size(), -1);
+    for (std::size_t c = 0; c < joined_into.size(); ++c)
+      if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)
+        joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
+    gap_group = joined_group;
   }
   auto fillScene = [&]() {
     std::vector<bool> in_object(cloud->size(), false);

@@ -388,9 +388,12 @@ PreparedView prepareView(const std::vector<SensorCloud>& clouds, const ViewPrepa
   if (params.segment_table)
   {
     // The concave-crease split orients normals toward one camera; points only a second camera
-    // saw face away from it and would read as creases, so fused views are clustered whole.
+    // saw face away from it and would read as creases, so fused views are clustered whole. The
+    // occlusion join looks along one camera's lines of sight too.
     TableSegmentationParams segmentation = params.segmentation;
-    segmentation.split_concave_creases = segmentation.split_concave_creases && first_index_of_camera.size() <= 2;
+    const bool one_camera = first_index_of_camera.size() <= 2;
+    segmentation.split_concave_creases = segmentation.split_concave_creases && one_camera;
+    segmentation.join_occluded_pieces = segmentation.join_occluded_pieces && one_camera;
     const TableSegmentationResult seg = segmentTable(merged, segmentation);
     if (!seg.ok())
       return fail(prepared, ViewStage::Segmentation, statusOf(seg.failure), seg.reason);

@@ -4,6 +4,7 @@
 
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/perception/concave_split.h"
+#include "fast_grasp/perception/occlusion_join.h"
 
 #include <Eigen/Core>
 #include <pcl/PointIndices.h>
@@ -49,6 +50,11 @@ struct TableSegmentationParams
   /// also cuts single objects made of convex parts (a drill's chuck, a racket's head).
   bool split_concave_creases = false;
   ConcaveSplitParams concave_split;
+  /// Join the two visible pieces of an object that a nearer object hides in its middle
+  /// (occlusion_join.h), after the split. Needs the input's sensor_origin_ and
+  /// sensor_orientation_ (the camera pose).
+  bool join_occluded_pieces = true;
+  OcclusionJoinParams occlusion_join;
   TargetCluster target = TargetCluster::CenterOfView;
   /// Clusters stacked on the target (their projection onto the table lies mostly over the
   /// target's footprint) are parts of it that a gap split off: a transparent neck, a thin stem
