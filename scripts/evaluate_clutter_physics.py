@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Clearing a cluttered table: the clutter-removal protocol of VGN/GIGA in MuJoCo (issue 11 part 4).
 
-Per table: 3-6 objects of the training half of config/evaluation/objects.yaml (those that fit
-the gripper standing upright), *packed* (upright, side by side, touching) or *piled* (dropped
+Per table: 3-6 objects of the training half of config/evaluation/objects.yaml (`--split
+heldout`: of the held-out half, for reporting only; never tune on it) that fit the gripper
+standing upright, *packed* (upright, side by side, touching) or *piled* (dropped
 onto each other and settled), seeded (scripts/grasp_physics/clutter.py). Then, until the table
 is empty, no grasp is found or two grasps in a row fail: render the remaining objects with the
 package's Xtion renderer from an eye-in-hand camera like the single-object evaluator's
@@ -64,7 +65,9 @@ def parse_args(argv):
     p.add_argument("--objects-per-table", default="3,6", help="MIN,MAX objects placed per table")
     p.add_argument("--arrangements", default="packed,piled", help="packed, piled or both")
     p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
-    p.add_argument("--objects", default="", help="comma list of object names to draw from (default: the training half)")
+    p.add_argument("--objects", default="", help="comma list of object names to draw from (default: the --split half)")
+    p.add_argument("--split", default="train", choices=["train", "heldout"],
+                   help="which half of the objects config the tables are drawn from (heldout: report, never tune)")
     p.add_argument("--kinds", default="ycb,parametric",
                    help="ycb, parametric or both (ycb is skipped when no YCB folder is given)")
     p.add_argument("--friction", type=float, default=0.8)
@@ -96,11 +99,11 @@ def parse_args(argv):
 
 
 def load_candidates(args, gripper):
-    """The training-half objects that fit the gripper standing upright, in config order."""
+    """The --split half's objects that fit the gripper standing upright, in config order."""
     from grasp_physics import clutter, objects
     kinds = tuple(k for k in args.kinds.split(",") if k and (k != "ycb" or args.ycb_dir))
     names = [n for n in args.objects.split(",") if n]
-    objs = objects.load_objects(args.objects_config, args.ycb_dir, args.cache_dir, "all" if names else "train",
+    objs = objects.load_objects(args.objects_config, args.ycb_dir, args.cache_dir, "all" if names else args.split,
                                 names, kinds)
     return [o for o in objs if clutter.fits_gripper(o, gripper)]
 
@@ -308,9 +311,9 @@ def main(argv):
         w.writerows(tables)
     table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"])
     header = ("# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
-              "training objects that fit, seed %d%s, %.0f s"
+              "%s objects that fit, seed %d%s, %.0f s"
               % (single.gripper_lib.finger_reach_note(gripper), args.friction, args.tables, args.min_objects,
-                 args.max_objects, len(candidates), args.seed,
+                 args.max_objects, len(candidates), "training" if args.split == "train" else "HELD-OUT", args.seed,
                  ", split touching objects" if args.split_touching_objects else "", time.time() - t0))
     out = [header,
            "# " + (ALL_OBJECTS_NOTE if args.all_objects else BASELINE_NOTE),

@@ -3,7 +3,8 @@
 //
 // Input: the mOSD learn set (../shared/data/mosd-learn, not in the repository: organised
 // 640x480 PCDs with fields label x y z rgba; labels 1-9 table, label / 10 = object id). Per
-// scene the timed work is what the deployed pipeline does to a frame: preprocessCloud (every
+// scene the timed work (thread CPU time: one core's share, not inflated by other processes) is
+// what the deployed pipeline does to a frame: preprocessCloud (every
 // 2nd row and column, 5 mm voxel grid; --sampling deployed, the default) and segmentTable()
 // with the deployed parameters of config/perception.yaml. Each voxel takes the label most of
 // the sampled pixels in it carry (not timed). --sampling uniform reads every pixel and keeps
@@ -223,13 +224,13 @@ fast_grasp::TableSegmentationResult segmentDeployed(const LabelledCloud& raw,
   }
   fast_grasp::PreprocessParams preprocess;  // config/perception.yaml's stride and leaf
   preprocess.reach_m = 1e3;
-  const auto start = std::chrono::steady_clock::now();
+  const double start_ms = fast_grasp::threadCpuMs();
   const fast_grasp::PreprocessResult sampled = fast_grasp::preprocessCloud(frame, Eigen::Isometry3f::Identity(), preprocess);
-  preprocess_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  preprocess_ms = fast_grasp::threadCpuMs() - start_ms;
   fast_grasp::TableSegmentationResult result;
   if (sampled.ok)
     result = fast_grasp::segmentTable(sampled.cloud, params);
-  ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  ms = fast_grasp::threadCpuMs() - start_ms;
   labelled.clear();
   if (!sampled.ok)
     return result;
@@ -426,7 +427,7 @@ int main(int argc, char** argv)
     }
     else
     {
-      const auto start = std::chrono::steady_clock::now();
+      const double start_ms = fast_grasp::threadCpuMs();
       // One real point per 5 mm voxel, so every point keeps its label.
       LabelledCloud::Ptr finite(new LabelledCloud);
       for (const auto& p : raw->points)
@@ -441,7 +442,7 @@ int main(int argc, char** argv)
       for (const auto& p : sampled.points)
         cloud->push_back(pcl::PointXYZ(p.x, p.y, p.z));
       result = fast_grasp::segmentTable(cloud, params);
-      ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      ms = fast_grasp::threadCpuMs() - start_ms;
       xyz = *cloud;
     }
     if (method == "lccp")
@@ -518,8 +519,9 @@ int main(int argc, char** argv)
               total.objects, total.fit_objects, opening);
   std::printf("clusters: %d, of them %d mostly not object points (spurious)\n", total.clusters, total.spurious);
   if (!preprocess_frame_ms.empty())
-    std::printf("medians: preprocessCloud %.1f ms, table RANSAC %.1f ms, clusters %.1f ms\n",
+    std::printf("medians: preprocessCloud %.1f ms CPU, table RANSAC %.1f ms wall, clusters %.1f ms wall\n",
                 median(preprocess_frame_ms), median(ransac_frame_ms), median(clustering_frame_ms));
+  // Frame times are this thread's CPU time: what one core spends on the frame.
   std::printf("segmentation: right %.0f %% (fits: %.0f %%) merged %.0f %% split %.0f %% median %.1f ms per frame\n",
               pct(total.right, total.objects), pct(total.fit_right, total.fit_objects), pct(total.merged, total.objects),
               pct(total.split, total.objects), median(frame_ms));
