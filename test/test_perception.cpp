@@ -107,6 +107,24 @@ void finish(CloudXYZ& cloud)
   cloud.height = 1;
   cloud.is_dense = true;
 }
+
+/// The points of `back` that the camera at `eye` sees past `front`: none of front's points lies
+/// within 5 mm of the line of sight, nearer than the point.
+CloudXYZ visibleFrom(const Eigen::Vector3f& eye, const CloudXYZ& back, const CloudXYZ& front)
+{
+  CloudXYZ seen;
+  for (const auto& p : back.points)
+  {
+    const Eigen::Vector3f ray = p.getVector3fMap() - eye;
+    const bool hidden = std::any_of(front.points.begin(), front.points.end(), [&](const PointXYZ& o) {
+      const float along = (o.getVector3fMap() - eye).dot(ray) / ray.squaredNorm();
+      return along > 0.0f && along < 1.0f && (eye + along * ray - o.getVector3fMap()).norm() < 0.005f;
+    });
+    if (!hidden)
+      seen.push_back(p);
+  }
+  return seen;
+}
 }  // namespace
 
 // ------------------------------------------------------------------------------------------
@@ -683,17 +701,7 @@ TEST(TableSegmentation, TouchingObjectsAreCutAtTheirConcaveCrease)
     add_objects(objects, rng, ends);
     addPatch(table, Eigen::Vector3f(0.3f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.5f, 0.6f,
              0.005f, 0.001f, rng);
-    auto cloud = std::make_shared<CloudXYZ>();
-    for (const auto& t : table.points)
-    {
-      const Eigen::Vector3f ray = t.getVector3fMap() - eye;
-      const bool hidden = std::any_of(objects.points.begin(), objects.points.end(), [&](const PointXYZ& o) {
-        const float along = (o.getVector3fMap() - eye).dot(ray) / ray.squaredNorm();
-        return along > 0.0f && along < 1.0f && (eye + along * ray - o.getVector3fMap()).norm() < 0.005f;
-      });
-      if (!hidden)
-        cloud->push_back(t);
-    }
+    auto cloud = std::make_shared<CloudXYZ>(visibleFrom(eye, table, objects));
     bounds.assign(1, cloud->size());
     for (const std::size_t end : ends)
       bounds.push_back(cloud->size() + end);
@@ -790,21 +798,6 @@ TEST(TableSegmentation, AnObjectAnotherHidesInTheMiddleIsOneClusterAndASeenGapKe
 {
   // The camera looks along +x over a narrow tall box standing in front of what lies behind it.
   const Eigen::Vector3f eye(0.0f, 0.0f, 0.5f);
-  // Keeps the points of `back` that no point of `front` covers (within 5 mm of the line of sight).
-  auto visible = [&](const CloudXYZ& back, const CloudXYZ& front) {
-    CloudXYZ seen;
-    for (const auto& p : back.points)
-    {
-      const Eigen::Vector3f ray = p.getVector3fMap() - eye;
-      const bool hidden = std::any_of(front.points.begin(), front.points.end(), [&](const PointXYZ& o) {
-        const float along = (o.getVector3fMap() - eye).dot(ray) / ray.squaredNorm();
-        return along > 0.0f && along < 0.99f && (eye + along * ray - o.getVector3fMap()).norm() < 0.005f;
-      });
-      if (!hidden)
-        seen.push_back(p);
-    }
-    return seen;
-  };
   // bounds: [0] end of the table, then the end of each back object; the occluder comes last.
   auto scene = [&](const std::vector<std::pair<float, Eigen::Vector3f>>& back_boxes, float occluder_width_m,
                    std::vector<std::size_t>& bounds) {
@@ -817,12 +810,12 @@ TEST(TableSegmentation, AnObjectAnotherHidesInTheMiddleIsOneClusterAndASeenGapKe
     {
       CloudXYZ box;
       addBox(box, Eigen::Vector2f(0.7f, y), 0.0f, size, 0.005f, rng, eye);
-      backs.push_back(visible(box, occluder));
+      backs.push_back(visibleFrom(eye, box, occluder));
       all_objects += box;
     }
     addPatch(table, Eigen::Vector3f(0.3f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.6f,
              0.005f, 0.001f, rng);
-    auto cloud = std::make_shared<CloudXYZ>(visible(table, all_objects));
+    auto cloud = std::make_shared<CloudXYZ>(visibleFrom(eye, table, all_objects));
     bounds.assign(1, cloud->size());
     for (const CloudXYZ& back : backs)
     {
