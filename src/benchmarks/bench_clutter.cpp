@@ -5,8 +5,9 @@
 // what the pipeline does with `split_touching_objects:=true all_objects:=true`: prepareView
 // (preprocess, table segmentation with the concave-crease split, normals of every cluster) and
 // planTableGrasps (every object planned with the neighbours as obstacles, ordered by
-// object_choice), repeated --repeats times. Prints per bag the clusters, the objects with a
-// grasp and the median ms (thread CPU time) of each half; prints, never asserts.
+// object_choice), repeated --repeats times. Prints per bag the objects its truth file places
+// (bags/<bag>.truth.yaml), the clusters perception found, the clusters with a grasp and the
+// median ms (thread CPU time) of each half; prints, never asserts.
 //
 //   rosrun fast_grasp bench_clutter [--bags DIR] [--repeats N] [--gripper FILE] [--params FILE]
 //                                   [--planner NAME] [--no-split]
@@ -17,6 +18,7 @@
 #include "offline_pipeline.h"
 
 #include "fast_grasp/core/gripper_model.h"
+#include "fast_grasp/core/yaml_file.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/grasping/table_grasps.h"
 
@@ -47,6 +49,22 @@ const char* const kUsage =
 
 /// Thread CPU time since `since_ms` (threadCpuMs): one core's work, not what other processes
 /// on a shared machine add to the wall time.
+/// How many objects the bag's truth file (render_bag's `objects:` list) places; -1 without one.
+int truthObjects(const fs::path& bag)
+{
+  fs::path truth = bag;
+  truth.replace_extension(".truth.yaml");
+  try
+  {
+    const YAML::Node objects = loadYamlFile(truth.string())["objects"];
+    return objects && objects.IsSequence() ? static_cast<int>(objects.size()) : -1;
+  }
+  catch (const std::exception&)
+  {
+    return -1;
+  }
+}
+
 double milliseconds(double since_ms)
 {
   return threadCpuMs() - since_ms;
@@ -122,8 +140,8 @@ int main(int argc, char** argv)
   perception.segmentation.split_concave_creases = split;
   std::printf("planner %s, gripper %s, %s, %d repeats, one thread\n\n", planner_name.c_str(), gripper.name.c_str(),
               split ? "touching objects split" : "Euclidean clusters", repeats);
-  std::printf("%-22s %8s %8s %8s %14s %12s %10s\n", "bag", "points", "objects", "grasped", "perception ms",
-              "planning ms", "total ms");
+  std::printf("%-22s %8s %8s %8s %8s %14s %12s %10s\n", "bag", "points", "objects", "clusters", "grasped",
+              "perception ms", "planning ms", "total ms");
   std::vector<double> all_ms;
   for (const fs::path& bag : bags)
   {
@@ -167,8 +185,8 @@ int main(int argc, char** argv)
       continue;
     }
     all_ms.insert(all_ms.end(), total_ms.begin(), total_ms.end());
-    std::printf("%-22s %8zu %8zu %8zu %14.1f %12.1f %10.1f\n", bag.stem().c_str(), points, objects, grasped,
-                median(perception_ms), median(planning_ms), median(total_ms));
+    std::printf("%-22s %8zu %8d %8zu %8zu %14.1f %12.1f %10.1f\n", bag.stem().c_str(), points, truthObjects(bag),
+                objects, grasped, median(perception_ms), median(planning_ms), median(total_ms));
   }
   if (all_ms.empty())
   {
