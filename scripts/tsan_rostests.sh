@@ -52,6 +52,12 @@ fi
 out="${FAST_GRASP_TSAN_OUT:-${FAST_GRASP_WS}/tsan_out}"
 export FAST_GRASP_NUM_WORKER_THREADS="${FAST_GRASP_TSAN_THREADS:-4}"
 export FAST_GRASP_MANAGER_LAUNCH_PREFIX="env LD_PRELOAD=${runtime}"
+# GCC's built-in symbolizer names no frame of our (dlopen'ed, DWARF 5) libraries: llvm-symbolizer
+# (clang's, installed for the ASan build) does.
+symbolizer=""
+if command -v llvm-symbolizer > /dev/null; then
+  symbolizer="external_symbolizer_path=$(command -v llvm-symbolizer) "
+fi
 status=0
 summary=()
 for name in "${selected[@]}"; do
@@ -60,7 +66,7 @@ for name in "${selected[@]}"; do
   mkdir -p "${dir}"
   # history_size=4: deeper previous-access stacks (the races are between callbacks seconds
   # apart); halt_on_error=0: every report of a run, not the first one.
-  export TSAN_OPTIONS="log_path=${dir}/tsan halt_on_error=0 history_size=4 second_deadlock_stack=1 suppressions=${FAST_GRASP_SRC}/test/tsan.supp"
+  export TSAN_OPTIONS="log_path=${dir}/tsan halt_on_error=0 history_size=4 second_deadlock_stack=1 ${symbolizer}suppressions=${FAST_GRASP_SRC}/test/tsan.supp"
   read -r -a spec <<< "${TESTS[${name}]}"
   start=$(date +%s)
   if ROS_HOME="${dir}/ros_home" ROS_LOG_DIR="${dir}/ros_home/log" \
@@ -71,7 +77,7 @@ for name in "${selected[@]}"; do
     status=1
   fi
   seconds=$(( $(date +%s) - start ))
-  report="$(/usr/bin/python3 "${FAST_GRASP_SRC}/scripts/tsan_summary.py" "${dir}")"
+  report="$(/usr/bin/python3 "${FAST_GRASP_SRC}/scripts/tsan_summary.py" --lib-dir "${ws}/devel/lib" --lib-dir "${ws}/devel/lib/fast_grasp" "${dir}")"
   echo "== ${name}: ${result} in ${seconds} s; $(echo "${report}" | tail -n 1)"
   echo "${report}" | sed '$d'
   grep -q "^reports: 0 fast_grasp" <<< "$(echo "${report}" | tail -n 1)" || status=1
