@@ -91,6 +91,10 @@ def parse(block):
         (any(REFCOUNT.search(f[0]) for f in stack[:12]) and not stack[0][0].startswith("fast_grasp::")) or
         (FREES.match(stack[0][0]) and len(stack) > 1 and not OURS.match(stack[1][2]))
         for stack in stacks[:2])
+    if kind.startswith("lock-order-inversion") or kind.startswith("unlock of"):
+        # whose locks: the caller of pthread_mutex_lock (frame 1). Our frames further down only
+        # called into roscpp / log4cxx, whose own mutexes form the cycle.
+        stacks = [stack[1:2] if len(stack) > 1 else stack for stack in stacks]
     tops = []
     for stack in stacks:
         ours = [f for f in stack if OURS.match(f[2])]
