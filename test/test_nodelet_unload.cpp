@@ -24,9 +24,9 @@ namespace
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
 /// A 40 x 40 cm table at z = 0 (1 cm grid) under a 6 x 6 x 10 cm box, in base_link.
-Cloud::Ptr tableWithBox(const ros::Time& stamp)
+boost::shared_ptr<Cloud> tableWithBox(const ros::Time& stamp)
 {
-  Cloud::Ptr cloud(new Cloud);
+  boost::shared_ptr<Cloud> cloud(new Cloud);  // roscpp publishes boost pointers zero-copy
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j)
       cloud->push_back(pcl::PointXYZ(0.3f + 0.01f * i, -0.2f + 0.01f * j, 0.0f));
