@@ -36,6 +36,18 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;
   using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
 
+  /// Inputs first: the members are destroyed in reverse order of declaration, the subscribers
+  /// and the ~plan service last, so a callback still running on a manager worker thread when
+  /// the nodelet is unloaded (loader killed, manager shutting down) used inputs_, the mutexes
+  /// and the collision model after they were gone (ThreadSanitizer, docs/tests.md). Shutting a
+  /// subscriber down waits for its running callback.
+  ~ArmPlannerNodelet() override
+  {
+    for (ros::Subscriber* sub : { &joint_sub_, &scene_info_sub_, &scene_sub_, &object_sub_, &objects_sub_, &grasps_sub_ })
+      sub->shutdown();
+    plan_service_.shutdown();
+  }
+
   void onInit() override
   {
     nh_ = getNodeHandle();

@@ -157,6 +157,9 @@ private:
 /// Two synchronised inputs, ~hand and ~head, so not a CloudNodelet: only the start-up is shared.
 class CloudFusionNodelet : public CloudNodeletBase
 {
+public:
+  ~CloudFusionNodelet() override { stopInputs(); }  // before the members below go (CloudNodeletBase::stopInputs)
+
 private:
   std::string readParameters(ros::NodeHandle& pnh) override;
   void advertiseOutputs(ros::NodeHandle& pnh) override;
@@ -215,7 +218,7 @@ void CloudFusionNodelet::advertiseOutputs(ros::NodeHandle& /*pnh*/)
 
 void CloudFusionNodelet::subscribe()
 {
-  if (pipeline_)
+  if (pipeline_ && !inputsStopped())
     pipeline_->subscribe(*pnh_);
 }
 

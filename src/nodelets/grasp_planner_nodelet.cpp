@@ -80,6 +80,13 @@ PlannerInputLimits GraspPlannerNodelet::inputLimits(const ros::NodeHandle& priva
   return plannerInputLimitsFromYaml(top_level);
 }
 
+GraspPlannerNodelet::~GraspPlannerNodelet()
+{
+  scene_sub_.shutdown();
+  cloud_sub_.shutdown();
+  objects_sub_.shutdown();
+}
+
 void GraspPlannerNodelet::onInit()
 {
   nh_ = getNodeHandle();

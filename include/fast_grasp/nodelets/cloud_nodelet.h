@@ -58,6 +58,20 @@ protected:
 
   bool paramsOk() const { return params_ok_; }
 
+  /// The first thing every concrete nodelet's destructor does. Its own members (parameters,
+  /// publishers, tf buffer) are destroyed before this base's input subscriber, so without it an
+  /// input callback still running on a manager worker thread when the nodelet is unloaded used
+  /// them while they were destroyed (ThreadSanitizer, docs/tests.md). Unsubscribing waits for
+  /// that callback; afterwards a late connection callback no longer subscribes again.
+  void stopInputs()
+  {
+    boost::mutex::scoped_lock lock(connection_mutex_);
+    inputs_stopped_ = true;
+    unsubscribe();
+  }
+  /// For subscribe(), which NodeletLazy calls with connection_mutex_ held.
+  bool inputsStopped() const { return inputs_stopped_; }
+
   NodeletStatus status_;
 
 private:
@@ -83,6 +97,7 @@ private:
   virtual void advertiseAddressTopics(ros::NodeHandle& /*private_nh*/) {}
 
   bool params_ok_ = false;
+  bool inputs_stopped_ = false;  // guarded by NodeletLazy::connection_mutex_
 };
 
 template <typename T>
@@ -130,7 +145,7 @@ private:
 
   void subscribe() override
   {
-    if (paramsOk())
+    if (paramsOk() && !inputsStopped())
       input_sub_ = nh_->subscribe("input", 1, &CloudNodelet::inputCallback, this);
   }
 

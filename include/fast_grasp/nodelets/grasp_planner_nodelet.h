@@ -30,6 +30,11 @@ namespace fast_grasp
 class GraspPlannerNodelet : public nodelet::Nodelet
 {
 public:
+  /// Shuts the inputs down first, waiting for a callback that is running: the members it uses
+  /// (planner_, table_planes_, scene_mutex_) are declared after the subscribers and so would be
+  /// destroyed before them while a manager worker thread still plans (docs/tests.md, ThreadSanitizer).
+  ~GraspPlannerNodelet() override;
+
   using InputCloud = pcl::PointCloud<pcl::PointNormal>;
   /// ~all_objects input: every object of the frame, labelled (TableSegmentation's ~objects).
   using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
