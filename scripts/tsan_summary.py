@@ -19,7 +19,11 @@ import subprocess
 import sys
 
 FRAME = re.compile(r"^\s+#(\d+) (.*?) (\S+?)(?::(\d+))?(?::\d+)? \((\S+?)\+0x[0-9a-f]+\)\s*$")
-REFCOUNT = re.compile(r"sp_counted_base::release|sp_counted_impl_p\w*<.*>::(dispose|~sp_counted_impl_p)|sp_ms_deleter")
+# boost control blocks, and the std ones of clouds: every cloud a nodelet publishes is shared with
+# roscpp through a boost pointer whose deleter holds the std one (nodelets/shared_cloud.h), so its
+# last std owner can go right after roscpp's uninstrumented boost decrement.
+REFCOUNT = re.compile(r"sp_counted_base::release|sp_counted_impl_p\w*<.*>::(dispose|~sp_counted_impl_p)|sp_ms_deleter|"
+                      r"std::_Sp_counted_(ptr_inplace|deleter)<pcl::PointCloud<")
 FREES = re.compile(r"^(operator delete|free$|pthread_mutex_destroy$|pthread_cond_destroy$)")
 OURS = re.compile(r"^(libfast_grasp_\w+\.so|scene_camera)$")
 

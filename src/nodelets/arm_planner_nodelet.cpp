@@ -9,6 +9,7 @@
 #include "fast_grasp/arm/table_grasp_motion.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
@@ -50,6 +51,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
 
   void onInit() override
   {
+    primePclRosFieldMappings();
     nh_ = getNodeHandle();
     private_nh_ = getPrivateNodeHandle();
     status_.init(nh_, private_nh_, getName());

@@ -6,6 +6,7 @@
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
@@ -89,6 +90,7 @@ GraspPlannerNodelet::~GraspPlannerNodelet()
 
 void GraspPlannerNodelet::onInit()
 {
+  primePclRosFieldMappings();
   nh_ = getNodeHandle();
   private_nh_ = getPrivateNodeHandle();
   status_.init(nh_, private_nh_, getName());

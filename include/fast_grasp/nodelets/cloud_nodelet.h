@@ -6,6 +6,7 @@
 #pragma once
 
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 
 #include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_ros/point_cloud.h>
@@ -65,6 +66,9 @@ protected:
   /// that callback; afterwards a late connection callback no longer subscribes again.
   void stopInputs()
   {
+    // NodeletLazy's one-shot "never subscribed" warning calls a virtual of this object: seen
+    // (ThreadSanitizer) running while the destructor changed the object's vptr.
+    timer_ever_subscribed_.stop();
     boost::mutex::scoped_lock lock(connection_mutex_);
     inputs_stopped_ = true;
     unsubscribe();
@@ -77,6 +81,7 @@ protected:
 private:
   void onInit() final
   {
+    primePclRosFieldMappings();
     NodeletLazy::onInit();
     ros::NodeHandle& pnh = *pnh_;
     status_.init(*nh_, pnh, getName());
