@@ -3,7 +3,7 @@
 the distinct reports: a report is keyed by its kind and the top fast_grasp frame of each of its
 stacks (the access, the previous access, a mutex's stacks), so the same race seen a thousand
 times across frames and processes counts once. A frame is fast_grasp's when its module is one of
-our libraries (libfast_grasp_*) or executables (scene_camera). Reports with no such frame are
+our libraries (libfast_grasp_*) or executables (scene_camera, the test_* gtests). Reports with no such frame are
 listed apart: they are inside Debian's libraries and go to test/tsan.supp with a reason, never
 the ones with a fast_grasp frame.
 GCC's runtime leaves the frames of our dlopen'ed libraries unnamed (`<null> <null>
@@ -25,10 +25,10 @@ FRAME = re.compile(r"^\s+#(\d+) (.*?) (\S+?)(?::(\d+))?(?::\d+)? \((\S+?)\+0x[0-
 REFCOUNT = re.compile(r"sp_counted_base::release|sp_counted_impl_p\w*<.*>::(dispose|~sp_counted_impl_p)|sp_ms_deleter|"
                       r"std::_Sp_counted_(ptr_inplace|deleter)<pcl::PointCloud<")
 FREES = re.compile(r"^(operator delete|free$|pthread_mutex_destroy$|pthread_cond_destroy$)")
-OURS = re.compile(r"^(libfast_grasp_\w+\.so|scene_camera)$")
+OURS = re.compile(r"^(libfast_grasp_\w+\.so|scene_camera|test_\w+)$")
 
 
-UNNAMED = re.compile(r"<null> <null> \(((?:libfast_grasp_\w+\.so|scene_camera))\+(0x[0-9a-f]+)\)")
+UNNAMED = re.compile(r"<null> <null> \(((?:libfast_grasp_\w+\.so|scene_camera|test_\w+))\+(0x[0-9a-f]+)\)")
 
 
 def symbolize(texts, lib_dirs):
