@@ -83,6 +83,7 @@ PlannerInputLimits GraspPlannerNodelet::inputLimits(const ros::NodeHandle& priva
 
 GraspPlannerNodelet::~GraspPlannerNodelet()
 {
+  gate_.close();  // after ros::shutdown() the subscribers' shutdown no longer waits (callback_gate.h)
   scene_sub_.shutdown();
   cloud_sub_.shutdown();
   objects_sub_.shutdown();
@@ -149,6 +150,9 @@ void GraspPlannerNodelet::onInit()
 
 void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!scene->ok)
     return;
   Eigen::Vector4f plane(scene->table_plane[0], scene->table_plane[1], scene->table_plane[2], scene->table_plane[3]);
@@ -218,6 +222,9 @@ void GraspPlannerNodelet::publishFailure(const std_msgs::Header& header, const s
 
 void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud>& cloud)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!initialised())
     return;
   std_msgs::Header header;
@@ -265,6 +272,9 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
 
 void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!initialised())
     return;
   std_msgs::Header header;

@@ -5,6 +5,7 @@
 // /diagnostics, the zero-copy address topics — lives here once.
 #pragma once
 
+#include "fast_grasp/nodelets/callback_gate.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 #include "fast_grasp/nodelets/pcl_ros_mapping.h"
 
@@ -69,6 +70,7 @@ protected:
     // NodeletLazy's one-shot "never subscribed" warning calls a virtual of this object: seen
     // (ThreadSanitizer) running while the destructor changed the object's vptr.
     timer_ever_subscribed_.stop();
+    gate_.close();  // after ros::shutdown() unsubscribing no longer waits (callback_gate.h)
     boost::mutex::scoped_lock lock(connection_mutex_);
     inputs_stopped_ = true;
     unsubscribe();
@@ -77,6 +79,8 @@ protected:
   bool inputsStopped() const { return inputs_stopped_; }
 
   NodeletStatus status_;
+  /// Input callbacks hold a pass (CloudNodelet::inputCallback, CloudFusion's pipeline).
+  CallbackGate gate_;
 
 private:
   void onInit() final
@@ -158,6 +162,9 @@ private:
 
   void inputCallback(const InputConstPtr& input)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     reportExceptions(getName(), status_, [&] {
       if (kZeroCopyInput)
         publishAddress(received_address_pub_, input.get());

@@ -10,6 +10,7 @@
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/table_grasps.h"
 #include "fast_grasp/perception/normal_estimation.h"
+#include "fast_grasp/nodelets/callback_gate.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 
 #include <nodelet/nodelet.h>
@@ -71,6 +72,7 @@ private:
   /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
 
+  CallbackGate gate_;  // first: destroyed last (callback_gate.h)
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
   ros::Subscriber cloud_sub_;
