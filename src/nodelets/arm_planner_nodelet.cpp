@@ -7,8 +7,10 @@
 #include "fast_grasp/SegmentedScene.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/table_grasp_motion.h"
+#include "fast_grasp/nodelets/callback_gate.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
@@ -36,8 +38,22 @@ class ArmPlannerNodelet : public nodelet::Nodelet
   using Cloud = pcl::PointCloud<pcl::PointXYZ>;
   using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
 
+  /// Inputs first: the members are destroyed in reverse order of declaration, the subscribers
+  /// and the ~plan service last, so a callback still running on a manager worker thread when
+  /// the nodelet is unloaded (loader killed, manager shutting down) used inputs_, the mutexes
+  /// and the collision model after they were gone (ThreadSanitizer, docs/tests.md). Shutting a
+  /// subscriber down waits for its running callback.
+  ~ArmPlannerNodelet() override
+  {
+    gate_.close();  // after ros::shutdown() the subscribers' shutdown no longer waits (callback_gate.h)
+    for (ros::Subscriber* sub : { &joint_sub_, &scene_info_sub_, &scene_sub_, &object_sub_, &objects_sub_, &grasps_sub_ })
+      sub->shutdown();
+    plan_service_.shutdown();
+  }
+
   void onInit() override
   {
+    primePclRosFieldMappings();
     nh_ = getNodeHandle();
     private_nh_ = getPrivateNodeHandle();
     status_.init(nh_, private_nh_, getName());
@@ -137,26 +153,41 @@ class ArmPlannerNodelet : public nodelet::Nodelet
 
   void jointCallback(const sensor_msgs::JointState::ConstPtr& msg)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     std::lock_guard<std::mutex> lock(mutex_);
     latest_joints_ = msg;
   }
   void sceneInfoCallback(const fast_grasp::SegmentedScene::ConstPtr& msg)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     std::lock_guard<std::mutex> lock(mutex_);
     inputsAt(msg->header.stamp).info = msg;
   }
   void sceneCallback(const boost::shared_ptr<const Cloud>& msg)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     std::lock_guard<std::mutex> lock(mutex_);
     inputsAt(pcl_conversions::fromPCL(msg->header).stamp).scene = msg;
   }
   void objectCallback(const boost::shared_ptr<const Cloud>& msg)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     std::lock_guard<std::mutex> lock(mutex_);
     inputsAt(pcl_conversions::fromPCL(msg->header).stamp).object = msg;
   }
   void objectsCallback(const boost::shared_ptr<const ObjectsCloud>& msg)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     std::lock_guard<std::mutex> lock(mutex_);
     inputsAt(pcl_conversions::fromPCL(msg->header).stamp).objects = msg;
   }
@@ -336,6 +367,9 @@ class ArmPlannerNodelet : public nodelet::Nodelet
 
   void graspsCallback(const fast_grasp::GraspArray::ConstPtr& grasps)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     if (!collision_)
       return status_.error("not initialised (see the log)");
     if (grasps->grasps.empty())
@@ -366,6 +400,9 @@ class ArmPlannerNodelet : public nodelet::Nodelet
 
   bool planService(fast_grasp::PlanGrasp::Request& req, fast_grasp::PlanGrasp::Response& res)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return false;
     // Expected outcomes (no grasp reachable) are a status in the response, not a failed call.
     if (!collision_)
     {
@@ -443,6 +480,7 @@ class ArmPlannerNodelet : public nodelet::Nodelet
     markers_pub_.publish(array);
   }
 
+  CallbackGate gate_;  // first: destroyed last
   ros::NodeHandle nh_, private_nh_;
   NodeletStatus status_;
   ros::Publisher trajectory_pub_, executed_grasp_pub_, markers_pub_;

@@ -64,8 +64,8 @@ public:
   using CloudConstPtr = boost::shared_ptr<const Cloud>;
 
   TypedFusionPipeline(const FusionSettings& settings, ros::Publisher& output_pub, NodeletStatus& status,
-                      const std::string& name)
-    : settings_(settings), output_pub_(output_pub), status_(status), name_(name)
+                      CallbackGate& gate, const std::string& name)
+    : settings_(settings), output_pub_(output_pub), status_(status), gate_(gate), name_(name)
   {
   }
 
@@ -108,6 +108,9 @@ private:
 
   void callback(const CloudConstPtr& hand, const CloudConstPtr& head)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     reportExceptions(name_, status_, [&] { fuse(hand, head); });
   }
 
@@ -146,6 +149,7 @@ private:
   FusionSettings settings_;
   ros::Publisher& output_pub_;
   NodeletStatus& status_;
+  CallbackGate& gate_;
   std::string name_;
   message_filters::Subscriber<Cloud> hand_sub_;
   message_filters::Subscriber<Cloud> head_sub_;
@@ -157,6 +161,9 @@ private:
 /// Two synchronised inputs, ~hand and ~head, so not a CloudNodelet: only the start-up is shared.
 class CloudFusionNodelet : public CloudNodeletBase
 {
+public:
+  ~CloudFusionNodelet() override { stopInputs(); }  // before the members below go (CloudNodeletBase::stopInputs)
+
 private:
   std::string readParameters(ros::NodeHandle& pnh) override;
   void advertiseOutputs(ros::NodeHandle& pnh) override;
@@ -169,7 +176,7 @@ private:
     // The pipeline first: a subscriber already waiting for ~output makes NodeletLazy call
     // subscribe() from another worker thread as soon as it is advertised, and a subscribe()
     // that found no pipeline yet was lost for good (the two-camera chain then never ran).
-    pipeline_ = std::make_unique<TypedFusionPipeline<PointT>>(settings, output_pub_, status_, getName());
+    pipeline_ = std::make_unique<TypedFusionPipeline<PointT>>(settings, output_pub_, status_, gate_, getName());
     output_pub_ = advertise<pcl::PointCloud<PointT>>(*pnh_, "output", 1);
   }
 
@@ -215,7 +222,7 @@ void CloudFusionNodelet::advertiseOutputs(ros::NodeHandle& /*pnh*/)
 
 void CloudFusionNodelet::subscribe()
 {
-  if (pipeline_)
+  if (pipeline_ && !inputsStopped())
     pipeline_->subscribe(*pnh_);
 }
 

@@ -21,6 +21,9 @@ namespace fast_grasp
 {
 class CloudPreprocessNodelet : public CloudNodelet<sensor_msgs::PointCloud2>
 {
+public:
+  ~CloudPreprocessNodelet() override { stopInputs(); }  // before the members below go (CloudNodeletBase::stopInputs)
+
 private:
   std::string readParameters(ros::NodeHandle& pnh) override;
   void advertiseOutputs(ros::NodeHandle& pnh) override;

@@ -6,6 +6,7 @@
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/perception/cloud_checks.h"
 #include "fast_grasp/nodelets/grasp_conversions.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 #include "fast_grasp/nodelets/shared_cloud.h"
 #include "fast_grasp/nodelets/tf_wait.h"
 #include "fast_grasp/nodelets/xmlrpc_yaml.h"
@@ -80,8 +81,17 @@ PlannerInputLimits GraspPlannerNodelet::inputLimits(const ros::NodeHandle& priva
   return plannerInputLimitsFromYaml(top_level);
 }
 
+GraspPlannerNodelet::~GraspPlannerNodelet()
+{
+  gate_.close();  // after ros::shutdown() the subscribers' shutdown no longer waits (callback_gate.h)
+  scene_sub_.shutdown();
+  cloud_sub_.shutdown();
+  objects_sub_.shutdown();
+}
+
 void GraspPlannerNodelet::onInit()
 {
+  primePclRosFieldMappings();
   nh_ = getNodeHandle();
   private_nh_ = getPrivateNodeHandle();
   status_.init(nh_, private_nh_, getName());
@@ -140,6 +150,9 @@ void GraspPlannerNodelet::onInit()
 
 void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!scene->ok)
     return;
   Eigen::Vector4f plane(scene->table_plane[0], scene->table_plane[1], scene->table_plane[2], scene->table_plane[3]);
@@ -209,6 +222,9 @@ void GraspPlannerNodelet::publishFailure(const std_msgs::Header& header, const s
 
 void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud>& cloud)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!initialised())
     return;
   std_msgs::Header header;
@@ -256,6 +272,9 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
 
 void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects)
 {
+  const CallbackGate::Pass pass = gate_.enter();
+  if (!pass)
+    return;
   if (!initialised())
     return;
   std_msgs::Header header;

@@ -14,6 +14,12 @@ void NodeletStatus::init(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const
   diagnostics_timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_->update(); });
 }
 
+NodeletStatus::~NodeletStatus()
+{
+  // Shutting a ros::Timer down waits for a callback of it that is running (CallbackQueue::removeByID).
+  diagnostics_timer_.stop();
+}
+
 void NodeletStatus::report(Level level, const std::string& message)
 {
   {

@@ -20,6 +20,9 @@ namespace fast_grasp
 {
 class NormalEstimationNodelet : public CloudNodelet<CloudXYZ>
 {
+public:
+  ~NormalEstimationNodelet() override { stopInputs(); }  // before the members below go (CloudNodeletBase::stopInputs)
+
 private:
   std::string readParameters(ros::NodeHandle& pnh) override;
   void advertiseOutputs(ros::NodeHandle& pnh) override;

@@ -34,6 +34,9 @@ bool readVector3(ros::NodeHandle& pnh, const std::string& name, Eigen::Vector3f&
 
 class TableSegmentationNodelet : public CloudNodelet<CloudXYZ>
 {
+public:
+  ~TableSegmentationNodelet() override { stopInputs(); }  // before the members below go (CloudNodeletBase::stopInputs)
+
 private:
   std::string readParameters(ros::NodeHandle& pnh) override;
   void advertiseOutputs(ros::NodeHandle& pnh) override;

@@ -5,7 +5,9 @@
 // /diagnostics, the zero-copy address topics — lives here once.
 #pragma once
 
+#include "fast_grasp/nodelets/callback_gate.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
+#include "fast_grasp/nodelets/pcl_ros_mapping.h"
 
 #include <nodelet_topic_tools/nodelet_lazy.h>
 #include <pcl_ros/point_cloud.h>
@@ -58,11 +60,32 @@ protected:
 
   bool paramsOk() const { return params_ok_; }
 
+  /// The first thing every concrete nodelet's destructor does. Its own members (parameters,
+  /// publishers, tf buffer) are destroyed before this base's input subscriber, so without it an
+  /// input callback still running on a manager worker thread when the nodelet is unloaded used
+  /// them while they were destroyed (ThreadSanitizer, docs/tests.md). Unsubscribing waits for
+  /// that callback; afterwards a late connection callback no longer subscribes again.
+  void stopInputs()
+  {
+    // NodeletLazy's one-shot "never subscribed" warning calls a virtual of this object: seen
+    // (ThreadSanitizer) running while the destructor changed the object's vptr.
+    timer_ever_subscribed_.stop();
+    gate_.close();  // after ros::shutdown() unsubscribing no longer waits (callback_gate.h)
+    boost::mutex::scoped_lock lock(connection_mutex_);
+    inputs_stopped_ = true;
+    unsubscribe();
+  }
+  /// For subscribe(), which NodeletLazy calls with connection_mutex_ held.
+  bool inputsStopped() const { return inputs_stopped_; }
+
   NodeletStatus status_;
+  /// Input callbacks hold a pass (CloudNodelet::inputCallback, CloudFusion's pipeline).
+  CallbackGate gate_;
 
 private:
   void onInit() final
   {
+    primePclRosFieldMappings();
     NodeletLazy::onInit();
     ros::NodeHandle& pnh = *pnh_;
     status_.init(*nh_, pnh, getName());
@@ -83,6 +106,7 @@ private:
   virtual void advertiseAddressTopics(ros::NodeHandle& /*private_nh*/) {}
 
   bool params_ok_ = false;
+  bool inputs_stopped_ = false;  // guarded by NodeletLazy::connection_mutex_
 };
 
 template <typename T>
@@ -130,7 +154,7 @@ private:
 
   void subscribe() override
   {
-    if (paramsOk())
+    if (paramsOk() && !inputsStopped())
       input_sub_ = nh_->subscribe("input", 1, &CloudNodelet::inputCallback, this);
   }
 
@@ -138,6 +162,9 @@ private:
 
   void inputCallback(const InputConstPtr& input)
   {
+    const CallbackGate::Pass pass = gate_.enter();
+    if (!pass)
+      return;
     reportExceptions(getName(), status_, [&] {
       if (kZeroCopyInput)
         publishAddress(received_address_pub_, input.get());

@@ -10,6 +10,7 @@
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/table_grasps.h"
 #include "fast_grasp/perception/normal_estimation.h"
+#include "fast_grasp/nodelets/callback_gate.h"
 #include "fast_grasp/nodelets/nodelet_status.h"
 
 #include <nodelet/nodelet.h>
@@ -30,6 +31,11 @@ namespace fast_grasp
 class GraspPlannerNodelet : public nodelet::Nodelet
 {
 public:
+  /// Shuts the inputs down first, waiting for a callback that is running: the members it uses
+  /// (planner_, table_planes_, scene_mutex_) are declared after the subscribers and so would be
+  /// destroyed before them while a manager worker thread still plans (docs/tests.md, ThreadSanitizer).
+  ~GraspPlannerNodelet() override;
+
   using InputCloud = pcl::PointCloud<pcl::PointNormal>;
   /// ~all_objects input: every object of the frame, labelled (TableSegmentation's ~objects).
   using ObjectsCloud = pcl::PointCloud<pcl::PointXYZL>;
@@ -66,6 +72,7 @@ private:
   /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
 
+  CallbackGate gate_;  // first: destroyed last (callback_gate.h)
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
   ros::Subscriber cloud_sub_;

@@ -22,6 +22,13 @@ public:
     Error
   };
 
+  NodeletStatus() = default;
+  NodeletStatus(const NodeletStatus&) = delete;
+  NodeletStatus& operator=(const NodeletStatus&) = delete;
+  /// Stops the diagnostics timer first: its callback reads the members below, which the
+  /// implicit destructor would destroy while a manager worker thread may still run it.
+  ~NodeletStatus();
+
   /// `name` is the diagnostic task name (the nodelet's name).
   void init(ros::NodeHandle& nh, ros::NodeHandle& private_nh, const std::string& name);
 
