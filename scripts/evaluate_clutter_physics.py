@@ -53,7 +53,7 @@ TABLE_FIELDS = ["planner", "gripper", "arrangement", "table", "seed", "objects",
 BASELINE_NOTE = ("baseline: the pipeline plans for ONE target cluster (perception target_cluster, "
                  "center_of_view); touching objects are one cluster; no per-object planning (--all-objects)")
 ALL_OBJECTS_NOTE = ("--all-objects: every cluster planned, grasps clear of the other clusters and their unseen parts, "
-                    "the object picked by table_grasps/object_choice; touching objects are still one cluster")
+                    "the object picked by table_grasps/object_choice")
 
 
 def parse_args(argv):
@@ -316,7 +316,9 @@ def main(argv):
                  args.max_objects, len(candidates), "training" if args.split == "train" else "HELD-OUT", args.seed,
                  ", split touching objects" if args.split_touching_objects else "", time.time() - t0))
     out = [header,
-           "# " + (ALL_OBJECTS_NOTE if args.all_objects else BASELINE_NOTE),
+           "# " + (ALL_OBJECTS_NOTE if args.all_objects else BASELINE_NOTE) +
+           ("; touching objects cut apart at concave creases" if args.split_touching_objects
+            else "; touching objects are one cluster"),
            "| planner | arrangement | tables | objects placed | attempts | successes | cleared | success % | "
            "cleared % | target cluster one object / several / planning calls | tables ended by |",
            "|---|---|---|---|---|---|---|---|---|---|---|"] + table_md
