@@ -61,6 +61,20 @@ built="$(date +%s)"
 # halt_on_error: the first report ends the process with a non-zero status (UBSan included:
 # the build has -fno-sanitize-recover=undefined). detect_leaks: LeakSanitizer at exit.
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:allocator_may_return_null=1"
+# The test binaries find the package's libraries by RUNPATH, which LD_LIBRARY_PATH overrides: with
+# the normal workspace's setup.bash sourced (run_tests.sh does) they loaded the UNINSTRUMENTED
+# libraries and only the tests' own code ran under the sanitizers. The sanitized ones come first.
+export LD_LIBRARY_PATH="${ws}/devel/lib${LD_LIBRARY_PATH:+:${LD_LIBRARY_PATH}}"
+# Checked, as one more test case: a sanitized test must load the sanitized package libraries.
+loaded="$(ldd "${bin}/test_perception" 2>&1 | grep 'libfast_grasp_perception' || true)"
+if [[ "${loaded}" == *"${ws}/devel/lib/libfast_grasp_perception.so"* ]]; then
+  junit sanitized_libraries_loaded "" /dev/null
+else
+  failed=1
+  echo "${loaded}" > "${ws}/logs/ldd.log"
+  junit sanitized_libraries_loaded "test_perception does not load ${ws}/devel/lib/libfast_grasp_perception.so: ${loaded}" \
+    "${ws}/logs/ldd.log"
+fi
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 # Tests that assert a time budget check speed, which an ASan + UBSan build (10-20x slower) does
 # not measure: they run in the normal build only. The JACO IK round trip counts solutions found

@@ -47,9 +47,11 @@ struct CameraCells
   }
 };
 
+/// One map key per cell (cells fit in 32 bits: CameraCells::cell bounds them by 1e9). Shifted as
+/// unsigned: a left shift of a negative value is undefined.
 std::int64_t key(std::int64_t iu, std::int64_t iv)
 {
-  return (iu << 32) ^ (iv & 0xffffffffLL);
+  return static_cast<std::int64_t>((static_cast<std::uint64_t>(iu) << 32) ^ static_cast<std::uint32_t>(iv));
 }
 
 float boxGap(const Piece& a, const Piece& b)
