@@ -14,7 +14,7 @@ namespace fast_grasp
 namespace
 {
 /// What the rule needs of one cluster: its top, its box and, per angular cell of the camera's
-/// image plane, the nearest of its points (a small depth map of that cluster alone).
+/// image plane, the nearest of its points (a small depth map of that cluster alone; built only when needed).
 struct Piece
 {
   float top = -std::numeric_limits<float>::max();
@@ -91,36 +91,35 @@ std::vector<pcl::PointIndices> joinOccludedPieces(const CloudXYZ& cloud, const s
       piece.hi = piece.hi.cwiseMax(p);
       if (k % stride == 0)
         piece.sample.push_back(p);
-      std::int64_t iu = 0, iv = 0;
-      float range = 0.0f;
-      if (camera.cell(p, iu, iv, range))
-      {
-        auto [it, inserted] = piece.nearest.emplace(key(iu, iv), range);
-        if (!inserted)
-          it->second = std::min(it->second, range);
-      }
     }
   }
-  // Everything else the camera saw (table, background, small clusters), built when first needed.
-  std::unordered_map<std::int64_t, float> rest;
-  bool rest_built = false;
-  auto buildRest = [&]() {
-    std::vector<bool> in_cluster(cloud.size(), false);
-    for (const auto& cluster : clusters)
-      for (const auto i : cluster.indices)
-        in_cluster[static_cast<std::size_t>(i)] = true;
-    for (std::size_t i = 0; i < cloud.size(); ++i)
+  // The lines-of-sight maps: each cluster's, and everything else the camera saw (table,
+  // background, small clusters). Built when a pair first passes the cheap tests above: most
+  // frames have none.
+  auto addNearest = [&](std::unordered_map<std::int64_t, float>& map, const Eigen::Vector3f& p) {
+    std::int64_t iu = 0, iv = 0;
+    float range = 0.0f;
+    if (camera.cell(p, iu, iv, range))
     {
-      std::int64_t iu = 0, iv = 0;
-      float range = 0.0f;
-      if (!in_cluster[i] && camera.cell(cloud.points[i].getVector3fMap(), iu, iv, range))
-      {
-        auto [it, inserted] = rest.emplace(key(iu, iv), range);
-        if (!inserted)
-          it->second = std::min(it->second, range);
-      }
+      auto [it, inserted] = map.emplace(key(iu, iv), range);
+      if (!inserted)
+        it->second = std::min(it->second, range);
     }
-    rest_built = true;
+  };
+  std::unordered_map<std::int64_t, float> rest;
+  bool maps_built = false;
+  auto buildMaps = [&]() {
+    std::vector<bool> in_cluster(cloud.size(), false);
+    for (std::size_t c = 0; c < n; ++c)
+      for (const auto i : clusters[c].indices)
+      {
+        in_cluster[static_cast<std::size_t>(i)] = true;
+        addNearest(pieces[c].nearest, cloud.points[static_cast<std::size_t>(i)].getVector3fMap());
+      }
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (!in_cluster[i])
+        addNearest(rest, cloud.points[i].getVector3fMap());
+    maps_built = true;
   };
   // What the camera saw along the line of sight through `s`, a and b left out: the nearest
   // range of everything else within one cell. Nothing (a shadow, no return) is unknown.
@@ -182,8 +181,8 @@ std::vector<pcl::PointIndices> joinOccludedPieces(const CloudXYZ& cloud, const s
       const int samples = static_cast<int>(std::floor(gap / step)) - 1;
       if (gap > max_gap || samples < 1)
         continue;
-      if (!rest_built)
-        buildRest();
+      if (!maps_built)
+        buildMaps();
       // One object's hidden middle: nothing seen between the pieces, and most of it covered.
       int hidden = 0;
       bool seen = false;
