@@ -24,10 +24,11 @@ declare -A TESTS=(
   [pipeline_faults]="pipeline_faults.test"
   [nodelet_unload]="nodelet_unload.test"
   [pcl_ros_mapping]="gtest:test_pcl_ros_mapping"
+  [callback_gate]="gtest:test_callback_gate"
 )
 ORDER=(perception_bad_input perception_bags cloud_fusion two_camera_pipeline grasp_pipeline
   all_objects_pipeline next_view_pipeline clear_table pipeline_faults nodelet_unload
-  pcl_ros_mapping)
+  pcl_ros_mapping callback_gate)
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ] || [ "${1:-}" = "--list" ]; then
   echo "usage: tsan_rostests.sh [--list] [TEST ...]"
   for name in "${ORDER[@]}"; do echo "  ${name}: ${TESTS[${name}]}"; done

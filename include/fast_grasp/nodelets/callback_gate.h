@@ -1,8 +1,11 @@
-// Keeps a nodelet's callbacks out of its destructor. Shutting a ros::Subscriber down waits for its
-// running callback only while roscpp is up: once ros::shutdown() has run (SIGINT, the end of every
-// rostest) Subscriber::shutdown() returns at once, while the manager's worker threads still finish
-// the callbacks they had picked up when the nodelets are deleted. ThreadSanitizer saw ArmPlanner's
-// jointCallback write a member that ~ArmPlannerNodelet was destroying (docs/tests.md).
+// Keeps a nodelet's callbacks out of its destructor in a way ThreadSanitizer can see. Nodelet's
+// manager already destroys a nodelet only after every callback from its queues has returned (it
+// holds a reference to the nodelet around each call: test_nodelet_unload's NodeletLifetime tests),
+// but it counts that reference inside Debian's uninstrumented libnodeletlib, so TSan reported
+// ~ArmPlannerNodelet against jointCallback at the end of every rostest (after ros::shutdown(),
+// when a subscriber's shutdown no longer waits for its running callback). A gate made of a mutex
+// TSan knows orders the two for it, keeps its reports for real races (docs/tests.md), and would
+// also protect a callback that does not come from the nodelet's own queues.
 #pragma once
 
 #include <mutex>

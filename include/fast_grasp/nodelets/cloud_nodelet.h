@@ -61,14 +61,15 @@ protected:
   bool paramsOk() const { return params_ok_; }
 
   /// The first thing every concrete nodelet's destructor does. Its own members (parameters,
-  /// publishers, tf buffer) are destroyed before this base's input subscriber, so without it an
-  /// input callback still running on a manager worker thread when the nodelet is unloaded used
-  /// them while they were destroyed (ThreadSanitizer, docs/tests.md). Unsubscribing waits for
-  /// that callback; afterwards a late connection callback no longer subscribes again.
+  /// publishers, tf buffer) are destroyed before this base's input subscriber; the manager never
+  /// destroys a nodelet under a callback from its queues, but ThreadSanitizer cannot see that
+  /// ordering (docs/tests.md), so the destructor makes it explicit: unsubscribing and closing the
+  /// gate wait for a running callback. Afterwards a late connection callback no longer subscribes.
   void stopInputs()
   {
-    // NodeletLazy's one-shot "never subscribed" warning calls a virtual of this object: seen
-    // (ThreadSanitizer) running while the destructor changed the object's vptr.
+    // NodeletLazy's one-shot "never subscribed" warning calls a virtual of this object:
+    // ThreadSanitizer reported it against the destructor's vptr writes (an ordering it cannot
+    // see, docs/tests.md); stopping it first orders the two where TSan sees it.
     timer_ever_subscribed_.stop();
     gate_.close();  // after ros::shutdown() unsubscribing no longer waits (callback_gate.h)
     boost::mutex::scoped_lock lock(connection_mutex_);
