@@ -84,7 +84,13 @@ def parse_args(argv):
                                                          "physics_cache"))
     p.add_argument("--ycb-dir", default=os.environ.get("FAST_GRASP_YCB_DIR", ""))
     p.add_argument("--grasp-offline", default="", help="path of grasp_offline (default: from the catkin devel space)")
+    p.add_argument("--pool", type=int, default=1,
+                   help="also simulate the grasps ranked 2..N of every attempt, each from the same table state, "
+                        "into pool.csv with their features (training data for scripts/fit_fused_model.py); the "
+                        "clearance itself goes on with the top grasp as always")
     args = p.parse_args(argv)
+    if args.pool < 1:
+        p.error("--pool N with N >= 1")
     lo, _, hi = args.objects_per_table.partition(",")
     args.min_objects, args.max_objects = int(lo), int(hi or lo)
     if not 1 <= args.min_objects <= args.max_objects:
@@ -93,8 +99,8 @@ def parse_args(argv):
     if not args.arrangement_list or set(args.arrangement_list) - {"packed", "piled"}:
         p.error("--arrangements: packed, piled or packed,piled")
     args.planner_list = [x for x in args.planners.split(",") if x]
-    # what evaluate_grasps_physics.plan reads
-    args.pool, args.follow_next_view = 1, 0
+    # what evaluate_grasps_physics.plan reads (--max-grasps is args.pool)
+    args.follow_next_view = 0
     return args
 
 
@@ -181,7 +187,7 @@ def clear_table(job):
     grasp_offline = single.find_grasp_offline(args.grasp_offline)
     base = {"planner": planner, "gripper": gripper["name"], "arrangement": arrangement, "table": index,
             "objects_placed": placed}
-    rows, successes, cleared, rolled_away, failures_in_row, end = [], 0, 0, 0, 0, ""
+    rows, pool_rows, successes, cleared, rolled_away, failures_in_row, end = [], [], 0, 0, 0, 0, ""
     attempt = 0
     with tempfile.TemporaryDirectory(prefix="fg_clutter_") as folder:
         while True:
@@ -227,6 +233,9 @@ def clear_table(job):
             # what is left after the trial: the grasped object leaves with the hand; the others
             # (and an object a failed grasp dropped) settle without the hand
             after = scene.poses()
+            for rank, candidate in enumerate(grasps[:args.pool], start=1):
+                tried = outcome if rank == 1 else scene.execute(poses, candidate["rotation"], candidate["position"])
+                pool_rows.append(pool_row(base, attempt, rank, candidate, tried, names))
             keep = [k for k in range(len(objs)) if k != outcome["grasped"]]
             if outcome["success"]:
                 successes += 1
@@ -251,7 +260,27 @@ def clear_table(job):
     table = dict(base, seed=seed, objects=" ".join(o.name for o in chosen), attempts=attempt, successes=successes,
                  cleared=cleared,
                  rolled_away=rolled_away, end=end)
-    return rows, table
+    return rows, table, pool_rows
+
+
+POOL_FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "rank", "object", "pose", "view", "status",
+               "success", "unexpected_contact", "unstable", "failure_phase", "grasped_object", "closed_on", "score",
+               "source", "width_m"]
+
+
+def pool_row(base, attempt, rank, grasp, outcome, names):
+    """One simulated candidate in the columns scripts/fit_fused_model.py reads: a scene (its
+    object/pose/view key) is one attempt of one table; `object` names the table, so leave-one-
+    object-out leaves a whole table out."""
+    row = dict(base, attempt=attempt, rank=rank, object="%s-%d" % (base["arrangement"], base["table"]),
+               pose=attempt, view=0, status="ok", success=outcome["success"],
+               unexpected_contact=outcome["unexpected_contact"], unstable=outcome["unstable"],
+               failure_phase=outcome["failure_phase"],
+               grasped_object=names[outcome["grasped"]] if outcome["grasped"] >= 0 else "",
+               closed_on=names[outcome["closed_on"]] if outcome["closed_on"] >= 0 else "",
+               score=grasp["score"], source=grasp.get("source", ""), width_m=grasp["width_m"])
+    row.update({"f_" + k: v for k, v in grasp.get("features", {}).items()})
+    return row
 
 
 # ---- report ------------------------------------------------------------------------------------
@@ -299,8 +328,15 @@ def main(argv):
             results = pool.map(clear_table, jobs, chunksize=1)
     else:
         results = [clear_table(j) for j in jobs]
-    rows = [r for rs, _ in results for r in rs]
-    tables = [t for _, t in results]
+    rows = [r for rs, _, _ in results for r in rs]
+    tables = [t for _, t, _ in results]
+    pool_rows = [r for _, _, ps in results for r in ps]
+    if args.pool > 1:
+        features = sorted({k for r in pool_rows for k in r if k.startswith("f_")})
+        with open(os.path.join(args.out_dir, "pool.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=POOL_FIELDS + features, extrasaction="ignore")
+            w.writeheader()
+            w.writerows(pool_rows)
     with open(os.path.join(args.out_dir, "attempts.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=FIELDS, extrasaction="ignore")
         w.writeheader()

@@ -82,6 +82,7 @@ struct ProbeLedger
   std::map<const void*, int> running;  // callbacks inside, per instance
   int callbacks_on_deleted = 0;        // a callback began on an instance not alive
   int deleted_under_callback = 0;      // an instance destroyed while one of its callbacks ran
+  int initialised = 0;
   int destroyed = 0;
   long visits = 0;  // callbacks that ran on a live instance
   std::thread::id last_destructor_thread;
@@ -119,6 +120,10 @@ private:
     ros::NodeHandle& nh = getMTNodeHandle();
     sub_ = nh.subscribe<std_msgs::String>("probe_input", 50, [this](const std_msgs::String::ConstPtr&) { visit(true); });
     timer_ = nh.createWallTimer(ros::WallDuration(0.001), [this](const ros::WallTimerEvent&) { visit(false); });
+    // Through the ledger's mutex the destructor, wherever it runs, comes after these writes in a
+    // way ThreadSanitizer sees (the manager's own ordering is a reference count it cannot see).
+    std::lock_guard<std::mutex> lock(ledger.mutex);
+    ++ledger.initialised;
   }
 
   void visit(bool from_subscription)
@@ -289,6 +294,7 @@ TEST(NodeletLifetime, NoCallbackStartsOnADeletedNodelet)
     }
   });
   const int destroyed_before = ledger.destroyed;
+  const int initialised_before = ledger.initialised;
   const long visits_before = ledger.visits;
   int rounds = 0;
   for (; rounds < 200; ++rounds)
@@ -306,6 +312,7 @@ TEST(NodeletLifetime, NoCallbackStartsOnADeletedNodelet)
   std::unique_lock<std::mutex> lock(ledger.mutex);
   EXPECT_TRUE(ledger.changed.wait_for(lock, std::chrono::seconds(30),
                                       [&] { return ledger.destroyed == destroyed_before + 200; }));
+  EXPECT_EQ(ledger.initialised - initialised_before, 200);
   EXPECT_GT(ledger.visits - visits_before, 200) << "the callbacks hardly ran: nothing was checked";
   std::cout << "callbacks run: " << ledger.visits - visits_before << "\n";
   EXPECT_EQ(ledger.deleted_under_callback, 0);

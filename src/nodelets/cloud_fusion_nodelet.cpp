@@ -173,9 +173,8 @@ private:
   template <typename PointT>
   void makePipeline(const FusionSettings& settings)
   {
-    // The pipeline first: a subscriber already waiting for ~output makes NodeletLazy call
-    // subscribe() from another worker thread as soon as it is advertised, and a subscribe()
-    // that found no pipeline yet was lost for good (the two-camera chain then never ran).
+    // The inputs start only once onInit has advertised every output (CloudNodeletBase::
+    // startInputsIfListenedTo); the pipeline publishes through output_pub_, held by reference.
     pipeline_ = std::make_unique<TypedFusionPipeline<PointT>>(settings, output_pub_, status_, gate_, getName());
     output_pub_ = advertise<pcl::PointCloud<PointT>>(*pnh_, "output", 1);
   }
@@ -222,7 +221,7 @@ void CloudFusionNodelet::advertiseOutputs(ros::NodeHandle& /*pnh*/)
 
 void CloudFusionNodelet::subscribe()
 {
-  if (pipeline_ && !inputsStopped())
+  if (pipeline_ && mayStartInputs())
     pipeline_->subscribe(*pnh_);
 }
 

@@ -76,8 +76,9 @@ protected:
     inputs_stopped_ = true;
     unsubscribe();
   }
-  /// For subscribe(), which NodeletLazy calls with connection_mutex_ held.
-  bool inputsStopped() const { return inputs_stopped_; }
+  /// For subscribe(), which NodeletLazy calls with connection_mutex_ held: false until onInit has
+  /// advertised every output, and again once the destructor began.
+  bool mayStartInputs() const { return outputs_ready_ && !inputs_stopped_; }
 
   NodeletStatus status_;
   /// Input callbacks hold a pass (CloudNodelet::inputCallback, CloudFusion's pipeline).
@@ -100,13 +101,29 @@ private:
     }
     advertiseOutputs(pnh);
     advertiseAddressTopics(pnh);
+    startInputsIfListenedTo();
     onInitPostProcess();
+  }
+
+  /// A listener already waiting for an output makes NodeletLazy call subscribe() from a worker
+  /// thread as soon as that output is advertised, while this thread still assigns the later
+  /// publishers the input callback uses (ThreadSanitizer: TableSegmentation's process() publishing
+  /// on segmented_scene_pub_ while onInit assigned it, test_nodelet_unload). subscribe() refuses
+  /// until every output exists, and NodeletLazy then already counts the inputs as subscribed:
+  /// they are subscribed here instead.
+  void startInputsIfListenedTo()
+  {
+    boost::mutex::scoped_lock lock(connection_mutex_);
+    outputs_ready_ = true;
+    if (connection_status_ == nodelet_topic_tools::SUBSCRIBED)
+      subscribe();
   }
 
   /// CloudNodelet's zero-copy check topics.
   virtual void advertiseAddressTopics(ros::NodeHandle& /*private_nh*/) {}
 
   bool params_ok_ = false;
+  bool outputs_ready_ = false;   // guarded by NodeletLazy::connection_mutex_
   bool inputs_stopped_ = false;  // guarded by NodeletLazy::connection_mutex_
 };
 
@@ -155,7 +172,7 @@ private:
 
   void subscribe() override
   {
-    if (paramsOk() && !inputsStopped())
+    if (paramsOk() && mayStartInputs())
       input_sub_ = nh_->subscribe("input", 1, &CloudNodelet::inputCallback, this);
   }
 
