@@ -27,7 +27,7 @@ ROOT = os.path.dirname(HERE)
 CONFIG = os.path.join(ROOT, "config/grasp_planners.yaml")
 
 
-def load(paths):
+def load(paths, label="clean"):
     rows = []
     for run, path in enumerate(paths):
         with open(path) as f:
@@ -37,20 +37,38 @@ def load(paths):
         sys.exit("no fused candidate trials in %s" % ", ".join(paths))
     names = sorted({k[2:] for r in rows for k in r if k.startswith("f_")})
     x = np.array([[float(r.get("f_" + n) or 0.0) for n in names] for r in rows])
-    y = np.array([1.0 if r["success"] == "True" and r["unexpected_contact"] != "True" else 0.0 for r in rows])
+    # clean: held and touched nothing before closing (single objects); success: held (clutter,
+    # where brushing a neighbour on the way in is part of the task)
+    y = np.array([1.0 if r["success"] == "True" and (label == "success" or r["unexpected_contact"] != "True")
+                  else 0.0 for r in rows])
     # a scene is one view of one run: the same pose in two runs (other candidates) is two scenes
     scene = ["%s/%s/%s/%s/%s" % (r["run"], r["object"], r["pose"], r["view"], r["gripper"]) for r in rows]
     objects = [r["object"] for r in rows]
     return names, x, y, scene, objects
 
 
-def fit(x, y, scene, l2=0.001, iterations=2000):
+def config_model():
+    """(bias, {feature: weight}) of the model in config/grasp_planners.yaml."""
+    with open(CONFIG) as f:
+        block = re.search(r"  # BEGIN fitted model.*?  # END fitted model", f.read(), flags=re.S)
+    if not block:
+        sys.exit("%s: no BEGIN/END fitted model block" % CONFIG)
+    bias = float(re.search(r"\n    bias: *([-+0-9.eE]+)", block.group(0)).group(1))
+    weights = {m.group(1): float(m.group(2))
+               for m in re.finditer(r"\n      ([a-z_]+): *([-+0-9.eE]+)", block.group(0))}
+    return bias, weights
+
+
+def fit(x, y, scene, l2=0.001, iterations=2000, anchor=None):
     """Ranking, then calibration. The score is fitted so that within each scene the candidates
     that held come first (softmax over the scene's candidates, maximising the probability of
     picking one that held: per-candidate logistic regression was worse at the top-1 choice, as
     scenes with many easy candidates dominate it); a 1-D logistic fit of the outcome on that
     score then turns it into a success probability. Features standardised inside, weights
-    returned raw."""
+    returned raw. With `anchor` (raw weights of a model fitted before, e.g. on single objects
+    whose trials are not at hand), the L2 term pulls towards that model's ranking (scaled to
+    this data's best temperature) instead of towards zero: new data corrects it where it has
+    something to say and leaves it alone elsewhere."""
     mean, std = x.mean(axis=0), x.std(axis=0)
     std[std < 1e-9] = 1.0
     z = (x - mean) / std
@@ -59,10 +77,15 @@ def fit(x, y, scene, l2=0.001, iterations=2000):
         groups.setdefault(s, []).append(i)
     # scenes where every candidate held or none did say nothing about the ranking
     informative = [np.array(g) for g in groups.values() if 0 < y[g].sum() < len(g)]
-    w = np.zeros(z.shape[1])
+    w0 = np.zeros(z.shape[1])
+    if anchor is not None:
+        direction = np.asarray(anchor) * std  # the same ranking in standardised features
+        scale = min(np.logspace(-3, 1, 41), key=lambda c: _ranking_nll(z, y, informative, c * direction))
+        w0 = scale * direction
+    w = w0.copy()
     rate = 0.5
     for _ in range(iterations):
-        grad = l2 * w * len(informative)
+        grad = l2 * (w - w0) * len(informative)
         for g in informative:
             s = z[g] @ w
             e = np.exp(s - s.max())
@@ -85,6 +108,17 @@ def fit(x, y, scene, l2=0.001, iterations=2000):
     weights = a * w / std
     bias = b - float(weights @ mean)
     return bias, weights
+
+
+def _ranking_nll(z, y, informative, w):
+    """Minus the log-probability, summed over scenes, that the softmax over a scene's scores
+    picks a candidate that held."""
+    total = 0.0
+    for g in informative:
+        s = z[g] @ w
+        e = np.exp(s - s.max())
+        total -= np.log((e * (y[g] > 0.5)).sum() / e.sum())
+    return total
 
 
 def _logistic_1d(s, y, iterations=50):
@@ -137,16 +171,31 @@ def main(argv):
     p.add_argument("trials", nargs="+", help="trials.csv of fused pool runs on the training objects")
     p.add_argument("--l2", type=float, default=0.001)
     p.add_argument("--write", action="store_true", help="write the model into config/grasp_planners.yaml")
+    p.add_argument("--anchor", action="store_true",
+                   help="regularise towards the model now in config/grasp_planners.yaml instead of towards zero "
+                        "(refit on new trials, e.g. scripts/evaluate_clutter_physics.py --pool, without the old ones)")
+    p.add_argument("--label", default="clean", choices=["clean", "success"],
+                   help="what counts as held: clean (held, nothing touched before closing) or success (held)")
     args = p.parse_args(argv)
-    names, x, y, scene, objects = load(args.trials)
-    bias, weights = fit(x, y, scene, args.l2)
+    names, x, y, scene, objects = load(args.trials, args.label)
+    anchor = None
+    if args.anchor:
+        _, old_weights = config_model()
+        anchor = [old_weights.get(n, 0.0) for n in names]
+        print("anchored at the model in %s (%d of %d features weighted there)"
+              % (CONFIG, sum(n in old_weights for n in names), len(names)))
+    bias, weights = fit(x, y, scene, args.l2, anchor=anchor)
     in_sample, scenes = top1(x, y, scene, bias, weights)
     pool_order, _ = top1(x, y, scene, 0.0, np.zeros(len(names)))
+    if anchor is not None:
+        old_bias, _ = config_model()
+        current, _ = top1(x, y, scene, old_bias, np.asarray(anchor))
+        print("top-1 success of the model now in the config: %.0f %%" % (100 * current))
     # leave one object out: the ranking on objects the model never saw
     held = []
     for obj in sorted(set(objects)):
         train = np.array([o != obj for o in objects])
-        b, w = fit(x[train], y[train], [s for s, k in zip(scene, train) if k], args.l2)
+        b, w = fit(x[train], y[train], [s for s, k in zip(scene, train) if k], args.l2, anchor=anchor)
         idx = np.where(~train)[0]
         acc, n = top1(x[idx], y[idx], [scene[i] for i in idx], b, w)
         held += [acc] * n

@@ -24,6 +24,8 @@ FRAME = re.compile(r"^\s+#(\d+) (.*?) (\S+?)(?::(\d+))?(?::\d+)? \((\S+?)\+0x[0-
 # last std owner can go right after roscpp's uninstrumented boost decrement.
 REFCOUNT = re.compile(r"sp_counted_base::release|sp_counted_impl_p\w*<.*>::(dispose|~sp_counted_impl_p)|sp_ms_deleter|"
                       r"std::_Sp_counted_(ptr_inplace|deleter)<pcl::PointCloud<")
+# The same frames when llvm-symbolizer names them short ("~sp_counted_impl_pd", "dispose"): by file.
+REFCOUNT_FILES = re.compile(r"^(sp_counted_impl|sp_counted_base\w*|make_shared_object)\.hpp(:|$)")
 FREES = re.compile(r"^(operator delete|free$|pthread_mutex_destroy$|pthread_cond_destroy$)")
 OURS = re.compile(r"^(libfast_grasp_\w+\.so|scene_camera|test_\w+)$")
 
@@ -92,7 +94,8 @@ def parse(block):
     # The same when Debian's code itself frees or destroys (frame 1 not ours: a message buffer,
     # a ros::Publication, a timer's mutex when its last boost::shared_ptr goes).
     refcount_free = any(
-        (any(REFCOUNT.search(f[0]) for f in stack[:12]) and not stack[0][0].startswith("fast_grasp::")) or
+        (any(REFCOUNT.search(f[0]) or REFCOUNT_FILES.match(f[1]) for f in stack[:12])
+         and not stack[0][0].startswith("fast_grasp::")) or
         (FREES.match(stack[0][0]) and len(stack) > 1 and not OURS.match(stack[1][2]))
         for stack in stacks[:2])
     if kind.startswith("lock-order-inversion") or kind.startswith("unlock of"):
