@@ -1,5 +1,7 @@
 #include "fast_grasp/arm/arm_kinematics.h"
 
+#include "fast_grasp/arm/joint_sin_cos.h"
+
 #include <kdl/chain.hpp>
 #include <kdl/tree.hpp>
 #include <kdl_parser/kdl_parser.hpp>
@@ -169,7 +171,9 @@ struct ArmKinematics::Model
       return;
     }
     // Rotation about frame axis k: columns k+1 and k+2 turn in their plane.
-    const double c = std::cos(angle), sn = s.axis_sign * std::sin(angle);
+    double sn = 0.0, c = 1.0;
+    jointSinCos(angle, sn, c);  // libm's sin and cos were 13 % of a validity check
+    sn *= s.axis_sign;
     const int u = (s.principal_axis + 1) % 3, v = (s.principal_axis + 2) % 3;
     const Eigen::Vector3d cu = r.col(u), cv = r.col(v);
     r.col(u) = c * cu + sn * cv;

@@ -4,8 +4,13 @@
 #include <octomap/OcTree.h>
 #include <urdf_parser/urdf_parser.h>
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <set>
@@ -36,6 +41,21 @@ struct RobotCollision::Geometry
   // rotation and translation apart (contiguous 3 x 3 products, see ShapeFrames::place).
   std::vector<Eigen::Matrix3d> in_body_rotation;
   std::vector<Eigen::Vector3d> in_body_translation;
+  // Broad phase against the scene's boxes: per shape, (bounding radius + kGjkToleranceM)^2,
+  // -1 for shapes fixed to the base (never tested against the scene).
+  std::vector<double> box_reach2;
+  // Per body (ArmKinematics::bodyFrames): a sphere around all its shapes' bounding spheres,
+  // centre in the body frame. Self pairs are grouped by body pair; a body pair whose spheres
+  // are apart skips all its shape pairs (the UR5's hand carries 5 shapes: 35 of its 51 self
+  // pairs are hand pairs).
+  std::vector<Eigen::Vector3d> body_centre;
+  std::vector<double> body_radius;  // 0 for a body without shapes
+  struct BodyPairPairs
+  {
+    int body_a = 0, body_b = 0;
+    std::size_t begin = 0, end = 0;  // range of RobotCollision::self_pairs_
+  };
+  std::vector<BodyPairPairs> self_groups;
 };
 
 /// The shapes' world poses for one check: every centre at once (the bounding-sphere tests
@@ -49,13 +69,18 @@ struct RobotCollision::ShapeFrames
   // until its next call on that thread (one check at a time per thread).
   const Eigen::Isometry3d* bodies = nullptr;
   std::vector<Eigen::Isometry3d> poses;       // translation set; rotation where placed
-  std::vector<char> placed;
+  std::vector<Eigen::Vector3d> body_centres;  // world centres of Geometry::body_centre
+  // poses[i]'s rotation is set when placed_check[i] == check: no clearing per check (a
+  // std::vector<char>::assign was a memset call per check).
+  std::vector<std::uint64_t> placed_check;
+  std::uint64_t check = 0;
+  std::vector<std::uint64_t> body_box_mask;  // box broad phase scratch: per body, boxes it may reach
 
   void reset(const std::vector<RobotShape>& all, const Geometry& g, const Eigen::Isometry3d* body_frames);
   Eigen::Vector3d centre(std::size_t i) const { return poses[i].translation(); }
   const Eigen::Isometry3d& pose(std::size_t i)
   {
-    if (!placed[i])
+    if (placed_check[i] != check)
       place(i);
     return poses[i];
   }
@@ -73,6 +98,7 @@ struct RobotCollision::Scene
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     ConvexShape convex;
     Eigen::Vector3d aabb_half_m = Eigen::Vector3d::Zero();  // world axis-aligned half extents
+    Eigen::Vector3d aabb_min = Eigen::Vector3d::Zero(), aabb_max = Eigen::Vector3d::Zero();  // world
   };
   /// World axis-aligned bounds of an OctoMap's leaves (grown by one voxel).
   struct Bounds
@@ -305,6 +331,50 @@ PairVerdict classifyPair(const ConvexShape& a, const Eigen::Isometry3d& ta, cons
   return boxes ? PairVerdict::Touching : PairVerdict::Unknown;
 }
 
+/// Can a sphere (centre, radius squared) reach an axis-aligned box [lo, hi]? The exact
+/// squared distance from the centre to the box, branch-free.
+inline bool sphereMayTouchAabb(const Eigen::Vector3d& centre, double radius2, const Eigen::Vector3d& lo,
+                               const Eigen::Vector3d& hi)
+{
+#ifdef __SSE2__
+  // maxpd: GCC compiles std::max on doubles to compare-and-branch (its result differs from
+  // maxsd's on +-0), six unpredictable branches per test.
+  const __m128d zero = _mm_setzero_pd();
+  const __m128d c_xy = _mm_loadu_pd(centre.data()), c_z = _mm_load_sd(centre.data() + 2);
+  const __m128d g_xy = _mm_max_pd(
+      zero, _mm_max_pd(_mm_sub_pd(_mm_loadu_pd(lo.data()), c_xy), _mm_sub_pd(c_xy, _mm_loadu_pd(hi.data()))));
+  const __m128d g_z = _mm_max_sd(
+      zero, _mm_max_sd(_mm_sub_sd(_mm_load_sd(lo.data() + 2), c_z), _mm_sub_sd(c_z, _mm_load_sd(hi.data() + 2))));
+  const __m128d sq_xy = _mm_mul_pd(g_xy, g_xy);
+  const __m128d sum = _mm_add_sd(_mm_add_sd(sq_xy, _mm_unpackhi_pd(sq_xy, sq_xy)), _mm_mul_sd(g_z, g_z));
+  return _mm_cvtsd_f64(sum) <= radius2;
+#else
+  const double gx = std::max(0.0, std::max(lo.x() - centre.x(), centre.x() - hi.x()));
+  const double gy = std::max(0.0, std::max(lo.y() - centre.y(), centre.y() - hi.y()));
+  const double gz = std::max(0.0, std::max(lo.z() - centre.z(), centre.z() - hi.z()));
+  return gx * gx + gy * gy + gz * gz <= radius2;
+#endif
+}
+
+/// Does one of a scene box's face normals separate a shape from it? The first axes to try for
+/// a robot shape near a table, wall or shelf board (its closest-point axis, classifyPair's
+/// first, rarely separates from a large flat box): the shoulder's cylinder beside the table
+/// cost a whole classifyPair (~1000 instructions) in every UR5 check; a face test is ~40.
+/// Same margin as classifyPair: exact for two boxes, FCL's tolerance otherwise.
+bool boxFaceSeparates(const ConvexShape& shape, const Eigen::Isometry3d& shape_pose, const ConvexShape& box,
+                      const Eigen::Isometry3d& box_pose)
+{
+  const Eigen::Vector3d d = shape_pose.translation() - box_pose.translation();
+  const double margin = shape.type == RobotShape::Type::Box ? 0.0 : kGjkToleranceM;
+  for (int k = 0; k < 3; ++k)
+  {
+    const Eigen::Vector3d n = box_pose.linear().col(k);
+    if (std::abs(n.dot(d)) > box.half[k] + projectedHalfWidth(shape, shape_pose, n) + margin)
+      return true;
+  }
+  return false;
+}
+
 /// Can a shape with world AABB (centre, half) reach the bounds of an OctoMap?
 bool aabbMayTouchBounds(const Eigen::Vector3d& centre, const Eigen::Vector3d& half, const Eigen::Vector3d& min,
                         const Eigen::Vector3d& max)
@@ -463,6 +533,36 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
     const Eigen::Isometry3d in_body = kinematics_.linkInBodyFrame(s.chain_link) * s.offset;
     geometry->in_body_rotation.push_back(in_body.linear());
     geometry->in_body_translation.push_back(in_body.translation());
+    const double reach = g.second.bounding_radius + kGjkToleranceM;
+    geometry->box_reach2.push_back(s.body == 0 ? -1.0 : reach * reach);
+  }
+  // Body spheres: centred on the box around the body's shape spheres, wide enough for all of
+  // them (plus a nanometre against rounding: a body sphere must never cut off a shape sphere).
+  {
+    const std::size_t bodies = kinematics_.dof() + 1;
+    std::vector<Eigen::Vector3d> low(bodies, Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()));
+    std::vector<Eigen::Vector3d> high(bodies, Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity()));
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+    {
+      const std::size_t b = static_cast<std::size_t>(shapes_[i].body);
+      const Eigen::Vector3d r = Eigen::Vector3d::Constant(geometry->convex[i].bounding_radius);
+      low[b] = low[b].cwiseMin(geometry->in_body_translation[i] - r);
+      high[b] = high[b].cwiseMax(geometry->in_body_translation[i] + r);
+    }
+    geometry->body_centre.assign(bodies, Eigen::Vector3d::Zero());
+    geometry->body_radius.assign(bodies, 0.0);
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+    {
+      const std::size_t b = static_cast<std::size_t>(shapes_[i].body);
+      geometry->body_centre[b] = 0.5 * (low[b] + high[b]);
+    }
+    for (std::size_t i = 0; i < shapes_.size(); ++i)
+    {
+      const std::size_t b = static_cast<std::size_t>(shapes_[i].body);
+      geometry->body_radius[b] =
+          std::max(geometry->body_radius[b], (geometry->in_body_translation[i] - geometry->body_centre[b]).norm() +
+                                                 geometry->convex[i].bounding_radius + 1e-9);
+    }
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -487,6 +587,22 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
         checked.push_back(pair);
     }
     self_pairs_ = checked;
+  }
+  // Grouped by body pair (stable: within a group the pairs keep their order), one range each.
+  std::stable_sort(self_pairs_.begin(), self_pairs_.end(), [this](const auto& x, const auto& y) {
+    const auto key = [this](const std::pair<std::size_t, std::size_t>& p) {
+      const int a = shapes_[p.first].body, b = shapes_[p.second].body;
+      return std::make_pair(std::min(a, b), std::max(a, b));
+    };
+    return key(x) < key(y);
+  });
+  for (std::size_t k = 0; k < self_pairs_.size(); ++k)
+  {
+    const int a = shapes_[self_pairs_[k].first].body, b = shapes_[self_pairs_[k].second].body;
+    if (geometry->self_groups.empty() || geometry->self_groups.back().body_a != std::min(a, b) ||
+        geometry->self_groups.back().body_b != std::max(a, b))
+      geometry->self_groups.push_back({ std::min(a, b), std::max(a, b), k, k });
+    geometry->self_groups.back().end = k + 1;
   }
   // Lever arms: joint origins at the zero pose (distances between consecutive joint origins
   // and from a joint to the shapes it carries directly are rigid), chained by the triangle
@@ -572,6 +688,8 @@ void RobotCollision::addBox(const std::string& name, const Eigen::Vector3d& size
   box.convex.half = 0.5 * size_m.cwiseAbs();
   box.convex.bounding_radius = box.convex.half.norm();
   box.aabb_half_m = aabbHalfExtents(box.convex, pose);
+  box.aabb_min = pose.translation() - box.aabb_half_m;
+  box.aabb_max = pose.translation() + box.aabb_half_m;
   scene->boxes.push_back(box);
   scene_ = scene;
 }
@@ -601,14 +719,26 @@ void RobotCollision::ShapeFrames::reset(const std::vector<RobotShape>& all, cons
   shapes = &all;
   geometry = &g;
   bodies = body_frames;
-  poses.resize(all.size());
-  placed.assign(all.size(), 0);
-  for (std::size_t i = 0; i < all.size(); ++i)
+  const std::size_t n = all.size();
+  if (poses.size() != n)
+  {
+    poses.resize(n);
+    placed_check.assign(n, 0);
+  }
+  ++check;
+  for (std::size_t i = 0; i < n; ++i)
   {
     const Eigen::Isometry3d& body = bodies[static_cast<std::size_t>(all[i].body)];
     Eigen::Vector3d translation = body.translation();
     translation.noalias() += body.linear() * g.in_body_translation[i];
     poses[i].translation() = translation;
+  }
+  body_centres.resize(g.body_centre.size());
+  for (std::size_t b = 0; b < g.body_centre.size(); ++b)
+  {
+    Eigen::Vector3d centre = bodies[b].translation();
+    centre.noalias() += bodies[b].linear() * g.body_centre[b];
+    body_centres[b] = centre;
   }
 }
 
@@ -622,7 +752,7 @@ void RobotCollision::ShapeFrames::place(std::size_t i)
   rotation.noalias() = body_rotation * geometry->in_body_rotation[i];
   poses[i].linear() = rotation;
   poses[i].makeAffine();
-  placed[i] = 1;
+  placed_check[i] = check;
 }
 
 void RobotCollision::shapeFrames(const Eigen::VectorXd& q, ShapeFrames& frames) const
@@ -676,28 +806,42 @@ pcl::PointCloud<pcl::PointXYZ> RobotCollision::removeRobotPoints(const pcl::Poin
 
 bool RobotCollision::selfCollision(ShapeFrames& frames, bool cull, std::string* why) const
 {
-  for (const auto& pair : self_pairs_)
+  for (const Geometry::BodyPairPairs& group : geometry_->self_groups)
   {
-    const std::size_t i = pair.first, j = pair.second;
     if (cull)
     {
-      // classifyPair's first test, here: most pairs end at it, and the call costs as much.
-      const double reach = geometry_->convex[i].bounding_radius + geometry_->convex[j].bounding_radius;
-      if ((frames.centre(j) - frames.centre(i)).squaredNorm() > reach * reach)
+      // Both bodies' spheres first: most body pairs are far apart, and with them all their
+      // shape pairs.
+      const double reach = geometry_->body_radius[static_cast<std::size_t>(group.body_a)] +
+                           geometry_->body_radius[static_cast<std::size_t>(group.body_b)];
+      if ((frames.body_centres[static_cast<std::size_t>(group.body_b)] -
+           frames.body_centres[static_cast<std::size_t>(group.body_a)])
+              .squaredNorm() > reach * reach)
         continue;
     }
-    const Eigen::Isometry3d& pose_i = frames.pose(i);
-    const Eigen::Isometry3d& pose_j = frames.pose(j);
-    const PairVerdict verdict =
-        cull ? classifyPair(geometry_->convex[i], pose_i, geometry_->convex[j], pose_j) : PairVerdict::Unknown;
-    if (verdict == PairVerdict::Apart)
-      continue;
-    if (verdict == PairVerdict::Touching ||
-        collide(geometry_->shapes[i].get(), pose_i, geometry_->shapes[j].get(), pose_j))
+    for (std::size_t k = group.begin; k < group.end; ++k)
     {
-      if (why)
-        *why = "self: " + shapes_[i].link + " / " + shapes_[j].link;
-      return true;
+      const std::size_t i = self_pairs_[k].first, j = self_pairs_[k].second;
+      if (cull)
+      {
+        // classifyPair's first test, here: most pairs end at it, and the call costs as much.
+        const double reach = geometry_->convex[i].bounding_radius + geometry_->convex[j].bounding_radius;
+        if ((frames.centre(j) - frames.centre(i)).squaredNorm() > reach * reach)
+          continue;
+      }
+      const Eigen::Isometry3d& pose_i = frames.pose(i);
+      const Eigen::Isometry3d& pose_j = frames.pose(j);
+      const PairVerdict verdict =
+          cull ? classifyPair(geometry_->convex[i], pose_i, geometry_->convex[j], pose_j) : PairVerdict::Unknown;
+      if (verdict == PairVerdict::Apart)
+        continue;
+      if (verdict == PairVerdict::Touching ||
+          collide(geometry_->shapes[i].get(), pose_i, geometry_->shapes[j].get(), pose_j))
+      {
+        if (why)
+          *why = "self: " + shapes_[i].link + " / " + shapes_[j].link;
+        return true;
+      }
     }
   }
   return false;
@@ -736,31 +880,64 @@ bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOpti
   const Scene& scene = *scene_;
   const bool cull = options.conservative_culling;
   // Environment first: with a table most invalid states are caught by one cheap box test.
-  for (std::size_t i = 0; i < shapes_.size(); ++i)
-  {
-    if (shapes_[i].body == 0)
-      continue;  // fixed to the base: the mount may touch the table, and it never moves
-    const ConvexShape& convex = geometry_->convex[i];
-    const Eigen::Vector3d centre = frames.centre(i);
-    for (const Scene::Box& box : scene.boxes)
+  const std::size_t n = shapes_.size();
+  auto boxContact = [&](std::size_t i, const Scene::Box& box, PairVerdict verdict) {
+    if (verdict == PairVerdict::Touching ||
+        collide(geometry_->shapes[i].get(), frames.pose(i), box.geometry.get(), box.pose))
     {
-      PairVerdict verdict = PairVerdict::Unknown;
-      if (cull)
+      if (why)
+        *why = "box " + box.name + " / " + shapes_[i].link;
+      return true;
+    }
+    return false;
+  };
+  if (!cull)
+  {
+    for (std::size_t i = 0; i < n; ++i)
+      for (const Scene::Box& box : scene.boxes)
+        if (shapes_[i].body != 0 && boxContact(i, box, PairVerdict::Unknown))
+          return true;  // shapes fixed to the base skipped: the mount may touch the table, and it never moves
+  }
+  else
+  {
+    // Broad phase, two levels: each moving body's sphere against each box's world AABB, then
+    // the shape spheres of the bodies that reach a box (exact sphere-box distances, padded by
+    // FCL's tolerance). Every shape against every box was a third of a UR5 check in the narrow
+    // passage (13 shapes x 5 boxes); 6 bodies x 5 boxes, then a few shapes, is a fraction.
+    // Then, shape by shape as before, the separating axes and FCL for the boxes a shape's
+    // sphere reaches.
+    const std::size_t boxes = scene.boxes.size();
+    const std::size_t bodies = frames.body_centres.size();
+    frames.body_box_mask.resize(bodies);
+    for (std::size_t first = 0; first < boxes; first += 64)
+    {
+      const std::size_t last = std::min(boxes, first + 64);
+      for (std::size_t b = 1; b < bodies; ++b)  // body 0 is fixed to the base: never tested
       {
-        // The shape's bounding sphere against the box's world AABB (three compares), then
-        // the separating axes.
-        const Eigen::Vector3d gap = (centre - box.pose.translation()).cwiseAbs() - box.aabb_half_m;
-        verdict = gap.maxCoeff() > convex.bounding_radius ? PairVerdict::Apart :
-                                                            classifyPair(convex, frames.pose(i), box.convex, box.pose);
-        if (verdict == PairVerdict::Apart)
-          continue;
+        std::uint64_t mask = 0;
+        const double reach = geometry_->body_radius[b] + kGjkToleranceM;
+        if (geometry_->body_radius[b] > 0.0)
+          for (std::size_t k = first; k < last; ++k)
+            if (sphereMayTouchAabb(frames.body_centres[b], reach * reach, scene.boxes[k].aabb_min,
+                                   scene.boxes[k].aabb_max))
+              mask |= std::uint64_t(1) << (k - first);
+        frames.body_box_mask[b] = mask;
       }
-      if (verdict == PairVerdict::Touching ||
-          collide(geometry_->shapes[i].get(), frames.pose(i), box.geometry.get(), box.pose))
+      for (std::size_t i = 0; i < n; ++i)
       {
-        if (why)
-          *why = "box " + box.name + " / " + shapes_[i].link;
-        return true;
+        if (shapes_[i].body == 0)
+          continue;
+        for (std::uint64_t m = frames.body_box_mask[static_cast<std::size_t>(shapes_[i].body)]; m != 0; m &= m - 1)
+        {
+          const Scene::Box& box = scene.boxes[first + static_cast<std::size_t>(__builtin_ctzll(m))];
+          if (!sphereMayTouchAabb(frames.centre(i), geometry_->box_reach2[i], box.aabb_min, box.aabb_max))
+            continue;
+          if (boxFaceSeparates(geometry_->convex[i], frames.pose(i), box.convex, box.pose))
+            continue;
+          const PairVerdict verdict = classifyPair(geometry_->convex[i], frames.pose(i), box.convex, box.pose);
+          if (verdict != PairVerdict::Apart && boxContact(i, box, verdict))
+            return true;
+        }
       }
     }
   }
