@@ -420,7 +420,16 @@ def soak(minutes, rate_hz):
     load_after = load_average()
     warm_up_s = min(60.0, 0.25 * elapsed)
     return format_report(monitor.counts(), sampler, elapsed / 60.0, rate_hz, len(player.sent) / elapsed, warm_up_s,
-                         load_before, load_after)
+                         load_before, load_after), sampler
+
+
+def write_memory_csv(path, sampler):
+    """Every VmRSS sample (one per manager every 2 s): the report prints one a minute."""
+    with open(path, "w") as out:
+        out.write("manager,t_s,pid,vm_rss_kb\n")
+        for name, samples in sampler.samples.items():
+            for t, pid, kb in samples:
+                out.write("%s,%.1f,%d,%d\n" % (name, t, pid, kb))
 
 
 def main(argv):
@@ -428,14 +437,16 @@ def main(argv):
                                      usage="soak.py [--minutes M] [--rate HZ] [--report FILE]")
     parser.add_argument("--minutes", type=float, default=1.0)
     parser.add_argument("--rate", type=float, default=30.0, help="frames per second (default 30)")
-    parser.add_argument("--report", default="", help="also write the report to this file")
+    parser.add_argument("--report", default="", help="also write the report to this file, and every memory "
+                        "sample to <report without extension>_memory.csv")
     args = parser.parse_args(rospy.myargv(argv)[1:])
     rospy.init_node("soak", disable_signals=False)
-    report = soak(args.minutes, args.rate)
+    report, sampler = soak(args.minutes, args.rate)
     print(report, flush=True)
     if args.report:
         with open(args.report, "w") as out:
             out.write(report + "\n")
+        write_memory_csv(os.path.splitext(args.report)[0] + "_memory.csv", sampler)
 
 
 if __name__ == "__main__":
