@@ -2,6 +2,7 @@
 // and on hand-made bad input.
 #include "fast_grasp/arm/arm_motion_planner.h"
 #include "fast_grasp/arm/arm_rrt_connect.h"
+#include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/trajectory_timing.h"
 #include "fast_grasp/arm/validity_cache.h"
@@ -297,6 +298,48 @@ TEST(ValidityCache, GivesTheCheckersVerdictOnRandomAndRepeatedStates)
   EXPECT_FALSE(signs.valid(&minus_zero, positive));
   EXPECT_TRUE(signs.valid(&zero, positive));
   EXPECT_EQ(sign_calls, 2u);
+}
+
+TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstMinimum)
+{
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> angle(-kPi, kPi);
+  const std::vector<bool> continuous = { false, true, false, false, true, false };
+  const std::vector<char> continuous_chars(continuous.begin(), continuous.end());
+  JointNearestNeighbors<int> reference(continuous, [](const int&, double*) {});
+  for (std::size_t n : { 0u, 1u, 3u, 4u, 5u, 17u, 64u, 301u })
+  {
+    std::vector<std::vector<double>> columns(6, std::vector<double>(n));
+    for (auto& column : columns)
+      for (double& v : column)
+        v = angle(rng);
+    std::vector<const double*> data;
+    for (const auto& column : columns)
+      data.push_back(column.data());
+    const double query[6] = { angle(rng), angle(rng), angle(rng), angle(rng), angle(rng), angle(rng) };
+    std::vector<double> squared(n, -1.0);
+    jointSquaredDistances(data.data(), query, continuous_chars.data(), 6, n, squared.data());
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      double state[6];
+      for (int j = 0; j < 6; ++j)
+        state[j] = columns[static_cast<std::size_t>(j)][i];
+      const double d = reference.distance(state, query);
+      EXPECT_EQ(std::sqrt(squared[i]), d) << n << " " << i;  // bit for bit
+    }
+    // Ties and NaNs: the first index of the smallest value, NaN never smaller (Eigen's minCoeff).
+    for (int trial = 0; trial < 20 && n > 0; ++trial)
+    {
+      std::vector<double> values(n);
+      std::uniform_int_distribution<int> small(0, 5);
+      for (double& v : values)
+        v = small(rng) == 0 ? std::nan("") : static_cast<double>(small(rng));
+      Eigen::Index expected = 0;
+      Eigen::Map<const Eigen::ArrayXd>(values.data(), static_cast<Eigen::Index>(n)).minCoeff(&expected);
+      EXPECT_EQ(firstMinimumIndex(values.data(), n), static_cast<std::size_t>(expected)) << n << " " << trial;
+    }
+  }
+  EXPECT_EQ(firstMinimumIndex(nullptr, 0), 0u);
 }
 
 TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
