@@ -1,7 +1,10 @@
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 
 #include <cmath>
+#if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
+#define FAST_GRASP_X86_CLONES 1
+#endif
 
 namespace fast_grasp
 {
@@ -10,11 +13,11 @@ namespace fast_grasp
 // two (RRTConnect's nearest-neighbour scans were 15 % of the UR5 narrow passage benchmark).
 // "avx2" does not enable FMA, so each element's sum is the same rounding sequence as the
 // scalar distance (difference, square, add in joint order): the same nearest states.
-__attribute__((target_clones("avx2", "default"))) void jointSquaredDistances(const double* const* columns,
-                                                                              const double* query,
-                                                                              const char* continuous,
-                                                                              std::size_t joints, std::size_t n,
-                                                                              double* squared)
+#ifdef FAST_GRASP_X86_CLONES
+__attribute__((target_clones("avx2", "default")))
+#endif
+void jointSquaredDistances(const double* const* columns, const double* query, const char* continuous,
+                           std::size_t joints, std::size_t n, double* squared)
 {
   constexpr double kTwoPi = 2.0 * M_PI;
   for (std::size_t j = 0; j < joints; ++j)
@@ -54,6 +57,7 @@ __attribute__((target_clones("avx2", "default"))) void jointSquaredDistances(con
 
 namespace fast_grasp
 {
+#ifdef FAST_GRASP_X86_CLONES
 namespace
 {
 /// firstMinimumIndex with AVX: the minimum in four lanes (vminpd keeps the running minimum
@@ -86,14 +90,17 @@ __attribute__((target("avx2"))) std::size_t firstMinimumIndexAvx2(const double* 
   return 0;
 }
 }  // namespace
+#endif
 
 std::size_t firstMinimumIndex(const double* values, std::size_t n)
 {
   if (n == 0 || std::isnan(values[0]))
     return 0;
+#ifdef FAST_GRASP_X86_CLONES
   static const bool avx2 = __builtin_cpu_supports("avx2");
   if (avx2)
     return firstMinimumIndexAvx2(values, n);
+#endif
   std::size_t best = 0;
   for (std::size_t i = 1; i < n; ++i)
     if (values[i] < values[best])
