@@ -1,16 +1,22 @@
 // OMPL planning, time parameterisation and the grasp execution plan on the benchmark scenes
 // and on hand-made bad input.
 #include "fast_grasp/arm/arm_motion_planner.h"
+#include "fast_grasp/arm/arm_rrt_connect.h"
+#include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/trajectory_timing.h"
+#include "fast_grasp/arm/validity_cache.h"
 
 #include <gtest/gtest.h>
+#include <ompl/base/goals/GoalStates.h>
 #include <ompl/geometric/SimpleSetup.h>
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
+#include <random>
 
 namespace
 {
@@ -222,6 +228,162 @@ void planScene(const std::string& scene_name)
 TEST(ArmMotionPlanner, LongMotionSceneIsSolved) { planScene("long_motion"); }
 TEST(ArmMotionPlanner, NarrowPassageSceneIsSolved) { planScene("narrow_passage"); }
 TEST(ArmMotionPlanner, HorizontalShelfPlaceKeepsTheGripperLevel) { planScene("shelf_place_horizontal"); }
+
+/// The UR5 in the narrow passage scene, padded as the benchmark plans it.
+struct NarrowPassage
+{
+  NarrowPassage() : collision(ur5(), 0.005)
+  {
+    scene = loadArmScene(sourcePath("config/benchmarks/narrow_passage.yaml"));
+    addSceneBoxes(scene, collision);
+    planner = std::make_unique<ArmMotionPlanner>(collision);
+    params.planner_params = loadPlannerParameters(sourcePath("config/planners.yaml"));
+  }
+  ArmScene scene;
+  RobotCollision collision;
+  std::unique_ptr<ArmMotionPlanner> planner;
+  MotionPlanningParams params;
+};
+
+TEST(ValidityCache, GivesTheCheckersVerdictOnRandomAndRepeatedStates)
+{
+  const NarrowPassage np;
+  // A small table, so that states evict each other often.
+  ValidityCache cache(6, 64);
+  std::size_t calls = 0;
+  auto check = [&](const double* q) {
+    ++calls;
+    return np.planner->isValid(Eigen::Map<const Eigen::VectorXd>(q, 6), np.params);
+  };
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> angle(-kPi, kPi);
+  std::uniform_int_distribution<int> pick(0, 99);
+  std::vector<Eigen::VectorXd> seen;
+  std::size_t valid = 0, invalid = 0, queries = 0;
+  for (int i = 0; i < 3000; ++i)
+  {
+    Eigen::VectorXd q(6);
+    const int kind = pick(rng);
+    if (seen.empty() || kind < 50)
+      for (int j = 0; j < 6; ++j)
+        q[j] = angle(rng);
+    else if (kind < 85)
+      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];  // a state asked before
+    else
+    {
+      // One bit away from a state asked before (or -0.0 for 0.0): a different key.
+      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];
+      const int j = pick(rng) % 6;
+      q[j] = q[j] == 0.0 ? -0.0 : std::nextafter(q[j], kind % 2 ? 10.0 : -10.0);
+    }
+    seen.push_back(q);
+    const bool expected = np.planner->isValid(q, np.params);
+    const bool answered = cache.valid(q.data(), check);
+    ASSERT_EQ(answered, expected) << i << ": " << q.transpose();
+    ++queries;
+    (expected ? valid : invalid) += 1;
+  }
+  // Both verdicts occur, repeats were answered from the table and everything else was checked.
+  EXPECT_GT(valid, 300u);
+  EXPECT_GT(invalid, 300u);
+  EXPECT_GT(cache.hits(), 100u);
+  EXPECT_EQ(cache.hits() + calls, queries);
+
+  // Keys are the exact bits: 0.0 and -0.0 are different states to the table.
+  ValidityCache signs(1, 16);
+  std::size_t sign_calls = 0;
+  const double zero = 0.0, minus_zero = -0.0;
+  auto positive = [&](const double* x) { ++sign_calls; return !std::signbit(*x); };
+  EXPECT_TRUE(signs.valid(&zero, positive));
+  EXPECT_FALSE(signs.valid(&minus_zero, positive));
+  EXPECT_TRUE(signs.valid(&zero, positive));
+  EXPECT_EQ(sign_calls, 2u);
+}
+
+TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstMinimum)
+{
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> angle(-kPi, kPi);
+  const std::vector<bool> continuous = { false, true, false, false, true, false };
+  const std::vector<char> continuous_chars(continuous.begin(), continuous.end());
+  JointNearestNeighbors<int> reference(continuous, [](const int&, double*) {});
+  for (std::size_t n : { 0u, 1u, 3u, 4u, 5u, 17u, 64u, 301u })
+  {
+    std::vector<std::vector<double>> columns(6, std::vector<double>(n));
+    for (auto& column : columns)
+      for (double& v : column)
+        v = angle(rng);
+    std::vector<const double*> data;
+    for (const auto& column : columns)
+      data.push_back(column.data());
+    const double query[6] = { angle(rng), angle(rng), angle(rng), angle(rng), angle(rng), angle(rng) };
+    std::vector<double> squared(n, -1.0);
+    jointSquaredDistances(data.data(), query, continuous_chars.data(), 6, n, squared.data());
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      double state[6];
+      for (int j = 0; j < 6; ++j)
+        state[j] = columns[static_cast<std::size_t>(j)][i];
+      const double d = reference.distance(state, query);
+      EXPECT_EQ(std::sqrt(squared[i]), d) << n << " " << i;  // bit for bit
+    }
+    // Ties and NaNs: the first index of the smallest value, NaN never smaller (Eigen's minCoeff).
+    for (int trial = 0; trial < 20 && n > 0; ++trial)
+    {
+      std::vector<double> values(n);
+      std::uniform_int_distribution<int> small(0, 5);
+      for (double& v : values)
+        v = small(rng) == 0 ? std::nan("") : static_cast<double>(small(rng));
+      Eigen::Index expected = 0;
+      Eigen::Map<const Eigen::ArrayXd>(values.data(), static_cast<Eigen::Index>(n)).minCoeff(&expected);
+      EXPECT_EQ(firstMinimumIndex(values.data(), n), static_cast<std::size_t>(expected)) << n << " " << trial;
+    }
+  }
+  EXPECT_EQ(firstMinimumIndex(nullptr, 0), 0u);
+}
+
+TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
+{
+  const NarrowPassage np;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  MotionPlanningParams params = np.params;
+  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  for (int run = 0; run < 5; ++run)
+  {
+    const auto setup = np.planner->makeSetup(start, goals, params);
+    const ompl::base::PlannerPtr planner =
+        ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
+    ASSERT_TRUE(std::dynamic_pointer_cast<ArmRRTConnect>(planner));
+    EXPECT_DOUBLE_EQ(planner->as<ArmRRTConnect>()->getRange(), 0.3125);  // config/planners.yaml
+    setup->setPlanner(planner);
+    ASSERT_EQ(setup->solve(10.0), ompl::base::PlannerStatus::EXACT_SOLUTION) << run;
+    const auto& path = setup->getSolutionPath();
+    const ompl::base::SpaceInformationPtr& si = setup->getSpaceInformation();
+    ASSERT_GE(path.getStateCount(), 2u);
+    // The start and one of the goal states, bit for bit.
+    EXPECT_TRUE(si->equalStates(path.getState(0), setup->getProblemDefinition()->getStartState(0)));
+    const auto* goal_states = setup->getGoal()->as<ompl::base::GoalStates>();
+    bool at_goal = false;
+    for (std::size_t g = 0; g < goal_states->getStateCount(); ++g)
+      at_goal = at_goal || si->equalStates(path.getState(path.getStateCount() - 1), goal_states->getState(g));
+    EXPECT_TRUE(at_goal) << run;
+    // Every state valid and every segment valid at the space's resolution, in the path's
+    // direction (OMPL's DiscreteMotionValidator; goal-tree edges included).
+    for (std::size_t k = 0; k < path.getStateCount(); ++k)
+      EXPECT_TRUE(si->isValid(path.getState(k))) << run << " state " << k;
+    for (std::size_t k = 0; k + 1 < path.getStateCount(); ++k)
+      EXPECT_TRUE(si->checkMotion(path.getState(k), path.getState(k + 1))) << run << " segment " << k;
+    // The planner data hold both trees and the connecting edge.
+    ompl::base::PlannerData data(si);
+    planner->getPlannerData(data);
+    EXPECT_GE(data.numVertices(), path.getStateCount());
+    EXPECT_EQ(data.numStartVertices(), 1u);
+    EXPECT_GE(data.numGoalVertices(), 1u);
+    EXPECT_EQ(data.numEdges() + data.numStartVertices() + data.numGoalVertices(), data.numVertices() + 1);
+  }
+}
 
 TEST(ArmMotionPlanner, OctomapBoxForcesADetour)
 {

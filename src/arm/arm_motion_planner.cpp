@@ -1,6 +1,8 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 
+#include "fast_grasp/arm/arm_rrt_connect.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
+#include "fast_grasp/arm/validity_cache.h"
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/yaml_file.h"
 
@@ -28,7 +30,6 @@
 #include <ompl/geometric/planners/rrt/BiTRRT.h>
 #include <ompl/geometric/planners/rrt/LBTRRT.h>
 #include <ompl/geometric/planners/rrt/RRT.h>
-#include <ompl/geometric/planners/rrt/RRTConnect.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
 #include <ompl/geometric/planners/rrt/TRRT.h>
 #include <ompl/geometric/planners/sbl/SBL.h>
@@ -297,8 +298,10 @@ private:
   std::size_t joints_[2];
 };
 
-/// Stateless (hence thread-safe) validity: everything is recomputed from the state (the only
-/// scratch is per thread).
+/// Thread-safe validity: everything is computed from the state (the only scratch is per
+/// thread), and the verdicts are remembered by the state's exact joint values (ValidityCache:
+/// a run of the benchmark checks ~12 % of its states a second time, docs/benchmarks/arms.md,
+/// "Speed work, session 17 (2)").
 class ArmValidityChecker : public ob::StateValidityChecker
 {
 public:
@@ -316,13 +319,16 @@ public:
     thread_local Eigen::VectorXd q;
     q.resize(static_cast<Eigen::Index>(space_->dof()));
     space_->toJoints(state, q.data());
-    return planner_.isValid(q, params_);
+    return cache_.valid(q.data(), [this](const double*) { return planner_.isValid(q, params_); });
   }
 
 private:
   const ArmStateSpace* space_;
   const ArmMotionPlanner& planner_;
   const MotionPlanningParams params_;
+  // The planner's collision snapshot and params_ are fixed for this checker's life, so its
+  // verdict depends on the joint values alone.
+  mutable ValidityCache cache_{ space_->dof() };
 };
 
 /// Uniform sampling followed by a few damped Gauss-Newton steps that turn the grasp frame's
@@ -384,30 +390,24 @@ private:
   double tolerance_rad_;
 };
 
-/// OMPL's RRTConnect with its two trees in JointNearestNeighbors (exact, the same nearest
-/// states as OMPL's default GNAT, several times cheaper per query at these trees' sizes:
-/// docs/benchmarks/arms.md, "Speed work"). On a space other than ArmStateSpace it is OMPL's.
-class ArmRRTConnect : public og::RRTConnect
+/// Our RRTConnect (ArmRRTConnect: OMPL's RRTConnect without its repeated checks and queries)
+/// with its two trees in JointNearestNeighbors (exact, the same nearest states as OMPL's
+/// default GNAT, several times cheaper per query at these trees' sizes: docs/benchmarks/arms.md,
+/// "Speed work"). On a space other than ArmStateSpace the trees are OMPL's default.
+ob::PlannerPtr makeRRTConnect(const ob::SpaceInformationPtr& si)
 {
-public:
-  explicit ArmRRTConnect(const ob::SpaceInformationPtr& si) : og::RRTConnect(si) {}
-  void setup() override
-  {
-    const auto* arm = dynamic_cast<const ArmStateSpace*>(si_->getStateSpace().get());
-    if (arm)
-    {
-      std::vector<bool> continuous(arm->dof());
-      for (std::size_t j = 0; j < continuous.size(); ++j)
-        continuous[j] = arm->isContinuous(j);
-      auto joints_of = [arm](Motion* const& motion, double* q) { arm->toJoints(motion->state, q); };
-      if (!tStart_)
-        tStart_ = std::make_shared<JointNearestNeighbors<Motion*>>(continuous, joints_of);
-      if (!tGoal_)
-        tGoal_ = std::make_shared<JointNearestNeighbors<Motion*>>(continuous, joints_of);
-    }
-    og::RRTConnect::setup();
-  }
-};
+  const auto* arm = dynamic_cast<const ArmStateSpace*>(si->getStateSpace().get());
+  if (!arm)
+    return std::make_shared<ArmRRTConnect>(si);
+  using Motion = ArmRRTConnect::Motion;
+  std::vector<bool> continuous(arm->dof());
+  for (std::size_t j = 0; j < continuous.size(); ++j)
+    continuous[j] = arm->isContinuous(j);
+  auto joints_of = [arm](Motion* const& motion, double* q) { arm->toJoints(motion->state, q); };
+  return std::make_shared<ArmRRTConnect>(si, [continuous, joints_of]() {
+    return std::make_shared<JointNearestNeighbors<Motion*>>(continuous, joints_of);
+  });
+}
 
 template <typename PlannerT>
 ob::PlannerPtr make(const ob::SpaceInformationPtr& si)
@@ -455,7 +455,7 @@ ob::PlannerPtr ArmMotionPlanner::allocatePlanner(const std::string& name, const 
     { "BiEST", make<og::BiEST> },       { "ProjEST", make<og::ProjEST> },
     { "KPIECE", make<og::KPIECE1> },    { "BKPIECE", make<og::BKPIECE1> },
     { "LBKPIECE", make<og::LBKPIECE1> }, { "RRT", make<og::RRT> },
-    { "RRTConnect", make<ArmRRTConnect> }, { "PDST", make<og::PDST> },
+    { "RRTConnect", makeRRTConnect }, { "PDST", make<og::PDST> },
     { "STRIDE", make<og::STRIDE> },     { "PRM", make<og::PRM> },
     { "LazyPRM", make<og::LazyPRM> },   { "RRTstar", make<og::RRTstar> },
     { "PRMstar", make<og::PRMstar> },   { "LazyPRMstar", make<og::LazyPRMstar> },

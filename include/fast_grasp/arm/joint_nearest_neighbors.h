@@ -21,6 +21,14 @@
 
 namespace fast_grasp
 {
+/// squared[i] = sum_j d_j(columns[j][i], query[j])^2 for i < n, the terms added in joint order
+/// (d_j: the difference, the short way round for continuous[j]); src/arm/joint_squared_distances.cpp.
+void jointSquaredDistances(const double* const* columns, const double* query, const char* continuous,
+                           std::size_t joints, std::size_t n, double* squared);
+/// The first index of the smallest value among values[0..n) (NaN never smaller; 0 if values[0]
+/// is NaN or n is 0): Eigen's minCoeff(&index), with AVX when the CPU has it.
+std::size_t firstMinimumIndex(const double* values, std::size_t n);
+
 /// Nearest neighbours under the joint-space distance sqrt(sum_j d_j^2), d_j = |a_j - b_j|,
 /// taken the short way round (min(d_j, 2 pi - d_j)) for continuous joints: the ArmStateSpace's
 /// distance, computed in the same order, so the answers are the ones GNAT gives with it (ties
@@ -48,6 +56,7 @@ public:
     , gnat_from_size_(gnat_from_size)
     , joints_(continuous_.size())
     , query_(continuous_.size(), 0.0)
+    , continuous_chars_(continuous_.begin(), continuous_.end())
   {
   }
 
@@ -100,9 +109,8 @@ public:
       return gnat_->nearest(data);
     if (elements_.empty())
       throw ompl::Exception("JointNearestNeighbors: no elements");
-    Eigen::Index best = 0;
-    squaredDistances(data).minCoeff(&best);  // the first of equals
-    return elements_[static_cast<std::size_t>(best)];
+    const Eigen::Map<const Eigen::ArrayXd> squared = squaredDistances(data);
+    return elements_[firstMinimumIndex(squared.data(), static_cast<std::size_t>(squared.size()))];  // the first of equals
   }
   void nearestK(const T& data, std::size_t k, std::vector<T>& nbh) const override
   {
@@ -178,27 +186,13 @@ private:
     joints_of_(data, query_.data());
     const Eigen::Index n = static_cast<Eigen::Index>(elements_.size());
     squared_.resize(elements_.size());
-    Eigen::Map<Eigen::ArrayXd> squared(squared_.data(), n);
-    // The first joint's term is assigned, not added to zeros (0 + x == x: the same sums), which
-    // saves a pass over the scratch (a memset call per query).
-    for (std::size_t j = 0; j < joints_.size(); ++j)
-    {
-      const double q = query_[j];
-      const Eigen::Map<const Eigen::ArrayXd> column(joints_[j].data(), n);
-      if (j == 0)
-      {
-        if (continuous_[j])
-          squared = (column - q).abs().min(2.0 * M_PI - (column - q).abs()).square();
-        else
-          squared = (column - q).square();
-      }
-      else if (continuous_[j])
-        squared += (column - q).abs().min(2.0 * M_PI - (column - q).abs()).square();
-      else
-        squared += (column - q).square();
-    }
     if (joints_.empty())
-      squared.setZero();
+      std::fill(squared_.begin(), squared_.end(), 0.0);
+    column_data_.resize(joints_.size());
+    for (std::size_t j = 0; j < joints_.size(); ++j)
+      column_data_[j] = joints_[j].data();
+    jointSquaredDistances(column_data_.data(), query_.data(), continuous_chars_.data(), joints_.size(),
+                          elements_.size(), squared_.data());
     return Eigen::Map<const Eigen::ArrayXd>(squared_.data(), n);
   }
 
@@ -210,6 +204,8 @@ private:
   std::vector<T> elements_;
   mutable std::vector<double> query_;    // scratch: the query's joints
   mutable std::vector<double> squared_;  // scratch: squared distances of the last query
+  std::vector<char> continuous_chars_;   // continuous_ as bytes for jointSquaredDistances
+  mutable std::vector<const double*> column_data_;  // scratch: joints_[j].data()
 };
 
 }  // namespace fast_grasp
