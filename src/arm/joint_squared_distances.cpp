@@ -53,10 +53,6 @@ void jointSquaredDistances(const double* const* columns, const double* query, co
   }
 }
 
-}  // namespace fast_grasp
-
-namespace fast_grasp
-{
 #ifdef FAST_GRASP_X86_CLONES
 namespace
 {

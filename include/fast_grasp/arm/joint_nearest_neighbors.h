@@ -51,12 +51,11 @@ public:
   /// continuous[j] marks the joints whose difference wraps at 2 pi. From gnat_from_size
   /// elements on (once the planner has set the distance function), GNAT answers.
   JointNearestNeighbors(std::vector<bool> continuous, JointsOf joints_of, std::size_t gnat_from_size = 4096)
-    : continuous_(std::move(continuous))
+    : continuous_(continuous.begin(), continuous.end())
     , joints_of_(std::move(joints_of))
     , gnat_from_size_(gnat_from_size)
     , joints_(continuous_.size())
     , query_(continuous_.size(), 0.0)
-    , continuous_chars_(continuous_.begin(), continuous_.end())
   {
   }
 
@@ -191,12 +190,12 @@ private:
     column_data_.resize(joints_.size());
     for (std::size_t j = 0; j < joints_.size(); ++j)
       column_data_[j] = joints_[j].data();
-    jointSquaredDistances(column_data_.data(), query_.data(), continuous_chars_.data(), joints_.size(),
+    jointSquaredDistances(column_data_.data(), query_.data(), continuous_.data(), joints_.size(),
                           elements_.size(), squared_.data());
     return Eigen::Map<const Eigen::ArrayXd>(squared_.data(), n);
   }
 
-  std::vector<bool> continuous_;
+  std::vector<char> continuous_;  // per joint: wraps at 2 pi (bytes: jointSquaredDistances reads them)
   JointsOf joints_of_;
   std::size_t gnat_from_size_;
   std::unique_ptr<ompl::NearestNeighborsGNATNoThreadSafety<T>> gnat_;  // null while scanning
@@ -204,7 +203,6 @@ private:
   std::vector<T> elements_;
   mutable std::vector<double> query_;    // scratch: the query's joints
   mutable std::vector<double> squared_;  // scratch: squared distances of the last query
-  std::vector<char> continuous_chars_;   // continuous_ as bytes for jointSquaredDistances
   mutable std::vector<const double*> column_data_;  // scratch: joints_[j].data()
 };
 
