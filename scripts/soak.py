@@ -337,16 +337,20 @@ class MemorySampler(threading.Thread):
         self.join(5.0)
 
     def growth(self, name, warm_up_s):
-        """(RSS just after warm-up, RSS at the end, growth in %) over one pid's samples; the
-        medians of the first 10 s after warm-up and of the last 10 % of the run."""
+        """(RSS just after warm-up, RSS at the end, growth in %) over one pid's samples: the
+        medians of two windows of the same length (the warm-up's, at most 60 s), one right after
+        the warm-up and one at the end. Same-length windows because the RSS of a manager that
+        hands whole camera frames between threads swings by a few frames (9.4 MiB each) from one
+        2 s sample to the next: a short window against a long one compares noise."""
         samples = self.samples[name]
         if not samples:
             return None
         pid = samples[-1][1]
         mine = [(t, rss) for t, p, rss in samples if p == pid]
         end_t = mine[-1][0]
-        after = [rss for t, rss in mine if warm_up_s <= t < warm_up_s + 10.0]
-        tail = [rss for t, rss in mine if t >= end_t - max(10.0, 0.1 * end_t)]
+        window_s = max(2.0, min(60.0, warm_up_s))
+        after = [rss for t, rss in mine if warm_up_s <= t < warm_up_s + window_s]
+        tail = [rss for t, rss in mine if t >= end_t - window_s]
         if not after or not tail:
             return None
         base = statistics.median(after)

@@ -156,6 +156,16 @@ class PipelineFaultsTest(unittest.TestCase):
             self.assertLess(max(settled) - settled[0], 200 * 1024,
                             "%s grew from %d to %d kB during the soak" % (name, settled[0], max(settled)))
 
+    def test_00b_perception_manager_runs_with_two_malloc_arenas(self):
+        # launch/perception.launch's malloc_arena_max: with glibc's 8 arenas per core the manager
+        # keeps freed camera frames in each arena and its RSS climbs in 9.4 MiB steps under load
+        # (docs/tests.md, Soak, session 18); with 2 it stays flat.
+        pid = soak.manager_pid("/fast_grasp_manager")
+        self.assertTrue(pid, "the perception manager is not registered")
+        with open("/proc/%d/environ" % pid, "rb") as environ:
+            variables = environ.read().split(b"\0")
+        self.assertIn(b"MALLOC_ARENA_MAX=2", variables)
+
     def test_01_camera_switches_resolution(self):
         frames = self.frames[:4]
         phases = [("320x240", [resampled(f, 2) for f in frames]), ("1280x960", [resampled(f, 0.5) for f in frames]),
