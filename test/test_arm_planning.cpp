@@ -6,16 +6,19 @@
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/trajectory_timing.h"
 #include "fast_grasp/arm/validity_cache.h"
+#include "cpu_timed_planner.h"  // src/benchmarks (bench_planners)
 
 #include <gtest/gtest.h>
 #include <ompl/base/goals/GoalStates.h>
 #include <ompl/geometric/SimpleSetup.h>
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
+#include <ompl/tools/benchmark/Benchmark.h>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <random>
 
 namespace
@@ -383,6 +386,69 @@ TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
     EXPECT_GE(data.numGoalVertices(), 1u);
     EXPECT_EQ(data.numEdges() + data.numStartVertices() + data.numGoalVertices(), data.numVertices() + 1);
   }
+}
+
+TEST(CpuTimedPlanner, RunsThePlannerInOmplsBenchmarkAsIfItRanAlone)
+{
+  // bench_planners hands OMPL's Benchmark this wrapper: the benchmark must see the wrapped
+  // planner's name, parameters and planner data, and the clock must be read when solve() ends.
+  const NarrowPassage np;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  MotionPlanningParams params = np.params;
+  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  const auto setup = np.planner->makeSetup(start, goals, params);
+  const ompl::base::PlannerPtr inner =
+      ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
+  inner->setName("RRTConnect");
+  const auto timed = std::make_shared<CpuTimedPlanner>(inner);
+  EXPECT_EQ(timed->getName(), "RRTConnect");
+  std::map<std::string, std::string> inner_params, timed_params;
+  inner->params().getParams(inner_params);
+  timed->params().getParams(timed_params);
+  EXPECT_EQ(timed_params, inner_params);
+  EXPECT_EQ(timed_params.at("range"), "0.3125");
+  timed->params().setParam("range", "0.25");  // the wrapper's parameters are the planner's
+  EXPECT_DOUBLE_EQ(inner->as<ArmRRTConnect>()->getRange(), 0.25);
+  timed->params().setParam("range", "0.3125");
+
+  ompl::tools::Benchmark benchmark(*setup, "narrow_passage");
+  benchmark.addPlanner(timed);
+  std::vector<double> cpu_before, cpu_at_end;
+  benchmark.setPreRunEvent([&](const ompl::base::PlannerPtr& p) {
+    EXPECT_EQ(p.get(), timed.get());
+    cpu_before.push_back(processCpuSeconds());
+  });
+  benchmark.setPostRunEvent([&](const ompl::base::PlannerPtr&, ompl::tools::Benchmark::RunProperties&) {
+    cpu_at_end.push_back(timed->cpuSecondsAtSolveEnd());
+    // The end of solve() lies between the pre-run event and now.
+    EXPECT_GE(cpu_at_end.back(), cpu_before.back());
+    EXPECT_LE(cpu_at_end.back(), processCpuSeconds());
+    // The solution is the wrapped planner's: exact, every segment a valid motion.
+    ASSERT_TRUE(setup->haveExactSolutionPath());
+    EXPECT_TRUE(setup->getSolutionPath().check());
+  });
+  ompl::tools::Benchmark::Request request(10.0, 4096.0, 3, 0.5, false, false, false);
+  benchmark.benchmark(request);
+  ASSERT_EQ(cpu_at_end.size(), 3u);
+  const auto& experiment = benchmark.getRecordedExperimentData();
+  ASSERT_EQ(experiment.planners.size(), 1u);
+  EXPECT_EQ(experiment.planners[0].name, "geometric_RRTConnect");
+  EXPECT_EQ(experiment.planners[0].common.at("range"), "0.3125");
+  for (const auto& run : experiment.planners[0].runs)
+  {
+    EXPECT_EQ(run.at("solved BOOLEAN"), "1");
+    EXPECT_EQ(run.at("correct solution BOOLEAN"), "1");
+    // The planner data came through: both trees, at least the path's states.
+    EXPECT_GE(std::stoi(run.at("graph states INTEGER")), std::stoi(run.at("solution segments INTEGER")) + 1);
+    EXPECT_GE(std::stoi(run.at("graph motions INTEGER")), 1);
+  }
+  // clear() reaches the wrapped planner: no tree left.
+  timed->clear();
+  ompl::base::PlannerData data(setup->getSpaceInformation());
+  inner->getPlannerData(data);
+  EXPECT_EQ(data.numVertices(), 0u);
 }
 
 TEST(ArmMotionPlanner, OctomapBoxForcesADetour)
