@@ -1,6 +1,8 @@
 // OMPL planning, time parameterisation and the grasp execution plan on the benchmark scenes
 // and on hand-made bad input.
 #include "fast_grasp/arm/arm_motion_planner.h"
+#include "fast_grasp/arm/arm_motion_validator.h"
+#include "fast_grasp/arm/batch_validity_checker.h"
 #include "fast_grasp/arm/arm_rrt_connect.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/grasp_execution.h"
@@ -15,7 +17,9 @@
 #include <ompl/util/RandomNumbers.h>
 #include <ompl/tools/benchmark/Benchmark.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -386,6 +390,126 @@ TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
     EXPECT_GE(data.numGoalVertices(), 1u);
     EXPECT_EQ(data.numEdges() + data.numStartVertices() + data.numGoalVertices(), data.numVertices() + 1);
   }
+}
+
+/// States of the narrow passage: random ones (about half in collision) and pairs bisected
+/// down to 1e-6 rad across a contact (where a different rounding would flip a verdict).
+std::vector<Eigen::VectorXd> randomAndNearContactStates(const NarrowPassage& np, std::mt19937& rng)
+{
+  const ArmKinematics& kin = np.collision.kinematics();
+  std::vector<Eigen::VectorXd> states, free_states, hit_states;
+  for (int i = 0; i < 3000; ++i)
+  {
+    states.push_back(kin.randomConfiguration(rng));
+    (np.collision.inCollision(states.back()) ? hit_states : free_states).push_back(states.back());
+  }
+  for (std::size_t k = 0; k < 300 && !free_states.empty() && !hit_states.empty(); ++k)
+  {
+    Eigen::VectorXd a = free_states[k % free_states.size()], b = hit_states[k % hit_states.size()];
+    while ((b - a).cwiseAbs().maxCoeff() > 1e-6)
+    {
+      const Eigen::VectorXd mid = 0.5 * (a + b);
+      (np.collision.inCollision(mid) ? b : a) = mid;
+    }
+    states.push_back(a);
+    states.push_back(b);
+  }
+  std::shuffle(states.begin(), states.end(), rng);
+  return states;
+}
+
+TEST(RobotCollision, FirstInCollisionGivesInCollisionsVerdictsInOrder)
+{
+  const NarrowPassage np;
+  std::mt19937 rng(5);
+  std::vector<Eigen::VectorXd> states = randomAndNearContactStates(np, rng);
+  // Bad vectors count as collisions, as in inCollision.
+  Eigen::VectorXd nan_state = states[0];
+  nan_state[2] = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::VectorXd short_state = states[1].head(5);
+  int collisions = 0, groups = 0;
+  for (std::size_t first = 0; first + 9 < states.size(); first += 1 + rng() % 9, ++groups)
+  {
+    const std::size_t count = 1 + rng() % 9;  // more than one batch of four too
+    std::vector<const Eigen::VectorXd*> group;
+    for (std::size_t k = 0; k < count; ++k)
+      group.push_back(&states[first + k]);
+    if (groups % 50 == 0)
+      group[rng() % count] = groups % 100 == 0 ? &nan_state : &short_state;
+    std::size_t expected = count;
+    for (std::size_t k = 0; k < count && expected == count; ++k)
+      if (np.collision.inCollision(*group[k]))
+        expected = k;
+    collisions += expected < count ? 1 : 0;
+    ASSERT_EQ(np.collision.firstInCollision(group.data(), count), expected) << "group at " << first;
+  }
+  EXPECT_GT(groups, 500);
+  EXPECT_GT(collisions, 100);
+  EXPECT_EQ(np.collision.firstInCollision(nullptr, 0), 0u);
+}
+
+TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
+{
+  const NarrowPassage np;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  MotionPlanningParams params = np.params;
+  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  const auto setup = np.planner->makeSetup(start, goals, params);
+  const ompl::base::SpaceInformationPtr& si = setup->getSpaceInformation();
+  si->setup();
+  const auto* checker = dynamic_cast<const BatchValidityChecker*>(si->getStateValidityChecker().get());
+  ASSERT_NE(checker, nullptr);
+  ASSERT_NE(dynamic_cast<const ArmMotionValidator*>(si->getMotionValidator().get()), nullptr);
+  std::mt19937 rng(9);
+  const std::vector<Eigen::VectorXd> qs = randomAndNearContactStates(np, rng);
+  std::vector<ompl::base::State*> states;
+  for (const Eigen::VectorXd& q : qs)
+  {
+    states.push_back(si->allocState());
+    si->getStateSpace()->copyFromReals(states.back(), std::vector<double>(q.data(), q.data() + q.size()));
+  }
+  // firstInvalid against the planner's isValid, state by state; groups overlap, so later
+  // groups meet states the checker's cache holds.
+  int groups = 0, invalid = 0;
+  for (std::size_t first = 0; first + 9 < states.size(); first += 1 + rng() % 5, ++groups)
+  {
+    const std::size_t count = 1 + rng() % 9;
+    std::size_t expected = count;
+    for (std::size_t k = 0; k < count && expected == count; ++k)
+      if (!np.planner->isValid(qs[first + k], params))
+        expected = k;
+    invalid += expected < count ? 1 : 0;
+    ASSERT_EQ(checker->firstInvalid(states.data() + first, count), expected) << "group at " << first;
+  }
+  EXPECT_GT(invalid, 100);
+  // ArmMotionValidator against OMPL's DiscreteMotionValidator on the same space: motions
+  // from valid states to all kinds of states, short and long.
+  ompl::base::DiscreteMotionValidator reference(si);
+  const auto& validator = *si->getMotionValidator();
+  int motions = 0, valid_motions = 0;
+  for (std::size_t k = 0; k + 1 < states.size() && motions < 1500; ++k)
+  {
+    if (!np.planner->isValid(qs[k], params))
+      continue;
+    ompl::base::State* to = states[k + 1];
+    if (k % 2 == 0)  // a short motion: a few states between the ends
+      si->getStateSpace()->interpolate(states[k], states[k + 1], 0.1, to = si->allocState());
+    const bool expected = reference.checkMotion(states[k], to);
+    ASSERT_EQ(validator.checkMotion(states[k], to), expected) << "motion " << k;
+    valid_motions += expected ? 1 : 0;
+    ++motions;
+    if (to != states[k + 1])
+      si->freeState(to);
+  }
+  EXPECT_GT(motions, 500);
+  EXPECT_GT(valid_motions, 50);
+  EXPECT_LT(valid_motions, motions - 50);
+  EXPECT_EQ(validator.getValidMotionCount(), reference.getValidMotionCount());
+  EXPECT_EQ(validator.getInvalidMotionCount(), reference.getInvalidMotionCount());
+  for (ompl::base::State* state : states)
+    si->freeState(state);
 }
 
 TEST(CpuTimedPlanner, RunsThePlannerInOmplsBenchmarkAsIfItRanAlone)

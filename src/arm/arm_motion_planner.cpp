@@ -1,6 +1,8 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 
 #include "fast_grasp/arm/arm_rrt_connect.h"
+#include "fast_grasp/arm/arm_motion_validator.h"
+#include "fast_grasp/arm/batch_validity_checker.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/validity_cache.h"
 #include "fast_grasp/core/grasp_types.h"
@@ -302,11 +304,11 @@ private:
 /// thread), and the verdicts are remembered by the state's exact joint values (ValidityCache:
 /// a run of the benchmark checks ~12 % of its states a second time, docs/benchmarks/arms.md,
 /// "Speed work, session 17 (2)").
-class ArmValidityChecker : public ob::StateValidityChecker
+class ArmValidityChecker : public BatchValidityChecker
 {
 public:
   ArmValidityChecker(const ob::SpaceInformationPtr& si, const ArmMotionPlanner& planner, MotionPlanningParams params)
-    : ob::StateValidityChecker(si)
+    : BatchValidityChecker(si)
     , space_(si->getStateSpace()->as<ArmStateSpace>())
     , planner_(planner)
     , params_(std::move(params))
@@ -320,6 +322,48 @@ public:
     q.resize(static_cast<Eigen::Index>(space_->dof()));
     space_->toJoints(state, q.data());
     return cache_.valid(q.data(), [this](const double*) { return planner_.isValid(q, params_); });
+  }
+  std::size_t firstInvalid(const ob::State* const* states, std::size_t count) const override
+  {
+    // The cache first, in order: a remembered invalid state ends the run there; the states
+    // not in it before that go to the planner together, and their verdicts are remembered
+    // up to the first invalid one (the planner checks no further).
+    struct Scratch
+    {
+      std::vector<Eigen::VectorXd> qs;
+      std::vector<const Eigen::VectorXd*> missed;
+      std::vector<std::size_t> missed_at;
+    };
+    thread_local Scratch scratch;
+    Scratch& s = scratch;  // one thread-local lookup
+    const auto dof = static_cast<Eigen::Index>(space_->dof());
+    if (s.qs.size() < count)
+      s.qs.resize(count);
+    s.missed.clear();
+    s.missed_at.clear();
+    std::size_t stop = count;
+    for (std::size_t k = 0; k < count; ++k)
+    {
+      s.qs[k].resize(dof);
+      space_->toJoints(states[k], s.qs[k].data());
+      const int known = cache_.find(s.qs[k].data());
+      if (known == 0)
+      {
+        stop = k;
+        break;
+      }
+      if (known < 0)
+      {
+        s.missed.push_back(&s.qs[k]);
+        s.missed_at.push_back(k);
+      }
+    }
+    if (s.missed.empty())
+      return stop;
+    const std::size_t bad = planner_.firstInvalid(s.missed.data(), s.missed.size(), params_);
+    for (std::size_t i = 0; i < s.missed.size() && i <= bad; ++i)
+      cache_.remember(s.missed[i]->data(), i < bad);
+    return bad < s.missed.size() ? s.missed_at[bad] : stop;
   }
 
 private:
@@ -507,6 +551,21 @@ bool ArmMotionPlanner::isValid(const Eigen::VectorXd& q, const MotionPlanningPar
   return !collision_.inCollision(q, CollisionCheckOptions(), why);
 }
 
+std::size_t ArmMotionPlanner::firstInvalid(const Eigen::VectorXd* const* qs, std::size_t count,
+                                           const MotionPlanningParams& params) const
+{
+  // isValid's joint-space tests state by state (cheap), then the collision tests of the states
+  // before the first that fails them, together; firstInCollision answers `limit` when those
+  // are all clear.
+  const ArmKinematics& kin = collision_.kinematics();
+  std::size_t limit = count;
+  for (std::size_t k = 0; k < count && limit == count; ++k)
+    if (!kin.withinLimits(*qs[k], 1e-9) ||
+        (params.keep_gripper_horizontal && gripperTiltRad(*qs[k]) > params.horizontal_tolerance_rad))
+      limit = k;
+  return collision_.firstInCollision(qs, limit, CollisionCheckOptions());
+}
+
 std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::VectorXd& start,
                                                              const std::vector<Eigen::VectorXd>& goals,
                                                              const MotionPlanningParams& params) const
@@ -529,6 +588,8 @@ std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::Vector
   setup->setStateValidityChecker(
       std::make_shared<ArmValidityChecker>(setup->getSpaceInformation(), *this, params));
   setup->getSpaceInformation()->setStateValidityCheckingResolution(params.longest_valid_segment_fraction);
+  // OMPL's discrete motion checks, a motion's states handed to the checker together.
+  setup->getSpaceInformation()->setMotionValidator(std::make_shared<ArmMotionValidator>(setup->getSpaceInformation()));
   ob::ScopedState<> start_state(space);
   space->fromEigen(start, start_state.get());
   setup->setStartState(start_state);

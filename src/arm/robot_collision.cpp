@@ -874,6 +874,42 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
   return inCollisionAt(frames, options, why);
 }
 
+std::size_t RobotCollision::firstInCollision(const Eigen::VectorXd* const* qs, std::size_t count,
+                                             const CollisionCheckOptions& options) const
+{
+  constexpr std::size_t kBatch = ArmKinematics::kBodyFrameBatch;
+  const std::size_t n = kinematics_.dof();
+  thread_local std::vector<Eigen::Isometry3d> bodies;  // per-thread scratch, see shapeFrames()
+  thread_local ShapeFrames frames;
+  bodies.resize(kBatch * (n + 1));
+  Eigen::Isometry3d* body_data = bodies.data();
+  ShapeFrames& scratch = frames;
+  const double* joints[kBatch];
+  for (std::size_t first = 0; first < count; first += kBatch)
+  {
+    const std::size_t group = std::min(kBatch, count - first);
+    // A vector of the wrong size or with NaNs is a collision (inCollision): the group's
+    // kinematics stop before it.
+    std::size_t usable = 0;
+    while (usable < group && qs[first + usable]->size() == static_cast<Eigen::Index>(n) &&
+           qs[first + usable]->allFinite())
+    {
+      joints[usable] = qs[first + usable]->data();
+      ++usable;
+    }
+    kinematics_.bodyFramesBatch(joints, usable, body_data);
+    for (std::size_t k = 0; k < usable; ++k)
+    {
+      scratch.reset(shapes_, *geometry_, body_data + k * (n + 1));
+      if (inCollisionAt(scratch, options, nullptr))
+        return first + k;
+    }
+    if (usable < group)
+      return first + usable;
+  }
+  return count;
+}
+
 bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOptions& options, std::string* why) const
 {
   // The shape frames arrive as a parameter, see shapeFrames().

@@ -71,6 +71,30 @@ public:
     return verdict;
   }
 
+  /// The verdict stored for q's bits: 1 valid, 0 invalid, -1 not in the table (then the
+  /// caller checks q and remember()s the verdict). For callers that check several states
+  /// together (ArmValidityChecker::firstInvalid).
+  int find(const double* q)
+  {
+    if (joints_ == 0 || joints_ > kMaxJoints)
+      return -1;
+    std::uint64_t key[kMaxJoints];
+    std::memcpy(key, q, joints_ * sizeof(double));
+    const int stored = lookup(key, slotOf(key) * stride_);
+    if (stored >= 0)
+      hits_.fetch_add(1, std::memory_order_relaxed);
+    return stored;
+  }
+  /// Stores the verdict of q, as valid() does after a miss.
+  void remember(const double* q, bool verdict)
+  {
+    if (joints_ == 0 || joints_ > kMaxJoints)
+      return;
+    std::uint64_t key[kMaxJoints];
+    std::memcpy(key, q, joints_ * sizeof(double));
+    store(key, slotOf(key) * stride_, verdict);
+  }
+
   /// Lookups answered from the table so far.
   std::uint64_t hits() const { return hits_.load(std::memory_order_relaxed); }
 
