@@ -7,7 +7,6 @@
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/trajectory_timing.h"
-#include "fast_grasp/arm/validity_cache.h"
 #include "cpu_timed_planner.h"  // src/benchmarks (bench_planners)
 
 #include <gtest/gtest.h>
@@ -252,61 +251,6 @@ struct NarrowPassage
   MotionPlanningParams params;
 };
 
-TEST(ValidityCache, GivesTheCheckersVerdictOnRandomAndRepeatedStates)
-{
-  const NarrowPassage np;
-  // A small table, so that states evict each other often.
-  ValidityCache cache(6, 64);
-  std::size_t calls = 0;
-  auto check = [&](const double* q) {
-    ++calls;
-    return np.planner->isValid(Eigen::Map<const Eigen::VectorXd>(q, 6), np.params);
-  };
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> angle(-kPi, kPi);
-  std::uniform_int_distribution<int> pick(0, 99);
-  std::vector<Eigen::VectorXd> seen;
-  std::size_t valid = 0, invalid = 0, queries = 0;
-  for (int i = 0; i < 3000; ++i)
-  {
-    Eigen::VectorXd q(6);
-    const int kind = pick(rng);
-    if (seen.empty() || kind < 50)
-      for (int j = 0; j < 6; ++j)
-        q[j] = angle(rng);
-    else if (kind < 85)
-      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];  // a state asked before
-    else
-    {
-      // One bit away from a state asked before (or -0.0 for 0.0): a different key.
-      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];
-      const int j = pick(rng) % 6;
-      q[j] = q[j] == 0.0 ? -0.0 : std::nextafter(q[j], kind % 2 ? 10.0 : -10.0);
-    }
-    seen.push_back(q);
-    const bool expected = np.planner->isValid(q, np.params);
-    const bool answered = cache.valid(q.data(), check);
-    ASSERT_EQ(answered, expected) << i << ": " << q.transpose();
-    ++queries;
-    (expected ? valid : invalid) += 1;
-  }
-  // Both verdicts occur, repeats were answered from the table and everything else was checked.
-  EXPECT_GT(valid, 300u);
-  EXPECT_GT(invalid, 300u);
-  EXPECT_GT(cache.hits(), 100u);
-  EXPECT_EQ(cache.hits() + calls, queries);
-
-  // Keys are the exact bits: 0.0 and -0.0 are different states to the table.
-  ValidityCache signs(1, 16);
-  std::size_t sign_calls = 0;
-  const double zero = 0.0, minus_zero = -0.0;
-  auto positive = [&](const double* x) { ++sign_calls; return !std::signbit(*x); };
-  EXPECT_TRUE(signs.valid(&zero, positive));
-  EXPECT_FALSE(signs.valid(&minus_zero, positive));
-  EXPECT_TRUE(signs.valid(&zero, positive));
-  EXPECT_EQ(sign_calls, 2u);
-}
-
 TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstMinimum)
 {
   std::mt19937 rng(7);
@@ -470,8 +414,7 @@ TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
     states.push_back(si->allocState());
     si->getStateSpace()->copyFromReals(states.back(), std::vector<double>(q.data(), q.data() + q.size()));
   }
-  // firstInvalid against the planner's isValid, state by state; groups overlap, so later
-  // groups meet states the checker's cache holds.
+  // firstInvalid against the planner's isValid, state by state (groups overlap).
   int groups = 0, invalid = 0;
   for (std::size_t first = 0; first + 9 < states.size(); first += 1 + rng() % 5, ++groups)
   {

@@ -4,7 +4,6 @@
 #include "fast_grasp/arm/arm_motion_validator.h"
 #include "fast_grasp/arm/batch_validity_checker.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
-#include "fast_grasp/arm/validity_cache.h"
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/yaml_file.h"
 
@@ -301,9 +300,11 @@ private:
 };
 
 /// Thread-safe validity: everything is computed from the state (the only scratch is per
-/// thread), and the verdicts are remembered by the state's exact joint values (ValidityCache:
-/// a run of the benchmark checks ~12 % of its states a second time, docs/benchmarks/arms.md,
-/// "Speed work, session 17 (2)").
+/// thread). No memory of verdicts: a table of them by the joint values' bits (ValidityCache,
+/// session 17) saved instructions but cost time, its lookups missing the CPU caches (UR5
+/// narrow passage -4 %, LWR shelf pick -10 %, end-to-end plan() -9 % CPU without it;
+/// docs/benchmarks/arms.md, "Speed work, session 18"); its hits were mostly the benchmark's
+/// own path checks.
 class ArmValidityChecker : public BatchValidityChecker
 {
 public:
@@ -321,58 +322,36 @@ public:
     thread_local Eigen::VectorXd q;
     q.resize(static_cast<Eigen::Index>(space_->dof()));
     space_->toJoints(state, q.data());
-    return cache_.valid(q.data(), [this](const double*) { return planner_.isValid(q, params_); });
+    return planner_.isValid(q, params_);
   }
   std::size_t firstInvalid(const ob::State* const* states, std::size_t count) const override
   {
-    // The cache first, in order: a remembered invalid state ends the run there; the states
-    // not in it before that go to the planner together, and their verdicts are remembered
-    // up to the first invalid one (the planner checks no further).
     struct Scratch
     {
       std::vector<Eigen::VectorXd> qs;
-      std::vector<const Eigen::VectorXd*> missed;
-      std::vector<std::size_t> missed_at;
+      std::vector<const Eigen::VectorXd*> pointers;
     };
     thread_local Scratch scratch;
     Scratch& s = scratch;  // one thread-local lookup
     const auto dof = static_cast<Eigen::Index>(space_->dof());
     if (s.qs.size() < count)
+    {
       s.qs.resize(count);
-    s.missed.clear();
-    s.missed_at.clear();
-    std::size_t stop = count;
+      s.pointers.resize(count);
+    }
     for (std::size_t k = 0; k < count; ++k)
     {
       s.qs[k].resize(dof);
       space_->toJoints(states[k], s.qs[k].data());
-      const int known = cache_.find(s.qs[k].data());
-      if (known == 0)
-      {
-        stop = k;
-        break;
-      }
-      if (known < 0)
-      {
-        s.missed.push_back(&s.qs[k]);
-        s.missed_at.push_back(k);
-      }
+      s.pointers[k] = &s.qs[k];
     }
-    if (s.missed.empty())
-      return stop;
-    const std::size_t bad = planner_.firstInvalid(s.missed.data(), s.missed.size(), params_);
-    for (std::size_t i = 0; i < s.missed.size() && i <= bad; ++i)
-      cache_.remember(s.missed[i]->data(), i < bad);
-    return bad < s.missed.size() ? s.missed_at[bad] : stop;
+    return planner_.firstInvalid(s.pointers.data(), count, params_);
   }
 
 private:
   const ArmStateSpace* space_;
   const ArmMotionPlanner& planner_;
   const MotionPlanningParams params_;
-  // The planner's collision snapshot and params_ are fixed for this checker's life, so its
-  // verdict depends on the joint values alone.
-  mutable ValidityCache cache_{ space_->dof() };
 };
 
 /// Uniform sampling followed by a few damped Gauss-Newton steps that turn the grasp frame's
