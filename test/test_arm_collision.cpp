@@ -322,11 +322,14 @@ TEST(SphereAabb, MaskGivesTheOneBoxVerdicts)
     const double radii2[3] = { radius2, -1.0, radius2 };
     for (std::size_t first = 0; first < 70; first += 64)
     {
-      std::uint64_t masks[3] = { 1, 1, 1 };
+      std::uint64_t masks[3] = { 1, 1, 1 }, sse2[3] = { 1, 1, 1 };
       fast_grasp::sphereAabbMasks(lanes, first, 64, centres, radii2, 3, masks);
+      fast_grasp::sphereAabbMasks(lanes, first, 64, centres, radii2, 3, sse2, false);
       const std::uint64_t mask = masks[0];
       EXPECT_EQ(masks[1], 0u);
       EXPECT_EQ(masks[2], mask);
+      ASSERT_EQ(sse2[0], mask);  // the SSE2 kernel too
+      EXPECT_EQ(sse2[1], 0u);
       for (std::size_t k = first; k < 70 && k < first + 64; ++k)
       {
         const bool expected = fast_grasp::sphereMayTouchAabb(centre, radius2, lo[k], hi[k]);

@@ -33,37 +33,35 @@ namespace
 #ifdef FAST_GRASP_X86
 /// maxpd / cmplepd on four boxes at a time: vmaxpd returns its second operand unless the
 /// first is greater, as _mm_max_pd in sphereMayTouchAabb, and each lane sums and compares as
-/// it does ((x^2 + y^2) + z^2 <= r^2, ordered: false for NaN).
+/// it does ((x^2 + y^2) + z^2 <= r^2, ordered: false for NaN, and for a negative r^2 as the
+/// squared gap is never negative). A group's boxes stay in registers for all spheres.
 __attribute__((target("avx2"))) void masksAvx2(const double* lanes, std::size_t groups, const Eigen::Vector3d* centres,
                                                 const double* radius2, std::size_t spheres, std::uint64_t* masks)
 {
   const __m256d zero = _mm256_setzero_pd();
-  for (std::size_t s = 0; s < spheres; ++s)
+  std::fill(masks, masks + spheres, 0);
+  for (std::size_t g = 0; g < groups; ++g)
   {
-    if (!(radius2[s] >= 0.0))
+    const double* p = lanes + 24 * g;
+    __m256d lo[3], hi[3];
+    for (int axis = 0; axis < 3; ++axis)
     {
-      masks[s] = 0;
-      continue;
+      lo[axis] = _mm256_loadu_pd(p + 4 * axis);
+      hi[axis] = _mm256_loadu_pd(p + 4 * (3 + axis));
     }
-    const __m256d r2 = _mm256_set1_pd(radius2[s]);
-    const __m256d c[3] = { _mm256_set1_pd(centres[s].x()), _mm256_set1_pd(centres[s].y()),
-                           _mm256_set1_pd(centres[s].z()) };
-    std::uint64_t mask = 0;
-    for (std::size_t g = 0; g < groups; ++g)
+    for (std::size_t s = 0; s < spheres; ++s)
     {
-      const double* p = lanes + 24 * g;
       __m256d gap[3];
       for (int axis = 0; axis < 3; ++axis)
       {
-        const __m256d below = _mm256_sub_pd(_mm256_loadu_pd(p + 4 * axis), c[axis]);
-        const __m256d above = _mm256_sub_pd(c[axis], _mm256_loadu_pd(p + 4 * (3 + axis)));
-        gap[axis] = _mm256_max_pd(zero, _mm256_max_pd(below, above));
+        const __m256d c = _mm256_set1_pd(centres[s][axis]);
+        gap[axis] = _mm256_max_pd(zero, _mm256_max_pd(_mm256_sub_pd(lo[axis], c), _mm256_sub_pd(c, hi[axis])));
       }
       const __m256d d2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(gap[0], gap[0]), _mm256_mul_pd(gap[1], gap[1])),
                                        _mm256_mul_pd(gap[2], gap[2]));
-      mask |= static_cast<std::uint64_t>(_mm256_movemask_pd(_mm256_cmp_pd(d2, r2, _CMP_LE_OQ))) << (4 * g);
+      masks[s] |= static_cast<std::uint64_t>(_mm256_movemask_pd(_mm256_cmp_pd(d2, _mm256_set1_pd(radius2[s]), _CMP_LE_OQ)))
+                  << (4 * g);
     }
-    masks[s] = mask;
   }
 }
 
@@ -72,39 +70,35 @@ void masksSse2(const double* lanes, std::size_t groups, const Eigen::Vector3d* c
                std::size_t spheres, std::uint64_t* masks)
 {
   const __m128d zero = _mm_setzero_pd();
-  for (std::size_t s = 0; s < spheres; ++s)
+  std::fill(masks, masks + spheres, 0);
+  for (std::size_t pair = 0; pair < 2 * groups; ++pair)
   {
-    if (!(radius2[s] >= 0.0))
+    const double* p = lanes + 24 * (pair / 2) + 2 * (pair % 2);
+    __m128d lo[3], hi[3];
+    for (int axis = 0; axis < 3; ++axis)
     {
-      masks[s] = 0;
-      continue;
+      lo[axis] = _mm_loadu_pd(p + 4 * axis);
+      hi[axis] = _mm_loadu_pd(p + 4 * (3 + axis));
     }
-    const __m128d r2 = _mm_set1_pd(radius2[s]);
-    const __m128d c[3] = { _mm_set1_pd(centres[s].x()), _mm_set1_pd(centres[s].y()), _mm_set1_pd(centres[s].z()) };
-    std::uint64_t mask = 0;
-    for (std::size_t g = 0; g < groups; ++g)
-      for (std::size_t half = 0; half < 2; ++half)
+    for (std::size_t s = 0; s < spheres; ++s)
+    {
+      __m128d gap[3];
+      for (int axis = 0; axis < 3; ++axis)
       {
-        const double* p = lanes + 24 * g + 2 * half;
-        __m128d gap[3];
-        for (int axis = 0; axis < 3; ++axis)
-        {
-          const __m128d below = _mm_sub_pd(_mm_loadu_pd(p + 4 * axis), c[axis]);
-          const __m128d above = _mm_sub_pd(c[axis], _mm_loadu_pd(p + 4 * (3 + axis)));
-          gap[axis] = _mm_max_pd(zero, _mm_max_pd(below, above));
-        }
-        const __m128d d2 =
-            _mm_add_pd(_mm_add_pd(_mm_mul_pd(gap[0], gap[0]), _mm_mul_pd(gap[1], gap[1])), _mm_mul_pd(gap[2], gap[2]));
-        mask |= static_cast<std::uint64_t>(_mm_movemask_pd(_mm_cmple_pd(d2, r2))) << (4 * g + 2 * half);
+        const __m128d c = _mm_set1_pd(centres[s][axis]);
+        gap[axis] = _mm_max_pd(zero, _mm_max_pd(_mm_sub_pd(lo[axis], c), _mm_sub_pd(c, hi[axis])));
       }
-    masks[s] = mask;
+      const __m128d d2 =
+          _mm_add_pd(_mm_add_pd(_mm_mul_pd(gap[0], gap[0]), _mm_mul_pd(gap[1], gap[1])), _mm_mul_pd(gap[2], gap[2]));
+      masks[s] |= static_cast<std::uint64_t>(_mm_movemask_pd(_mm_cmple_pd(d2, _mm_set1_pd(radius2[s])))) << (2 * pair);
+    }
   }
 }
 #endif
 }  // namespace
 
 void sphereAabbMasks(const AabbLanes& boxes, std::size_t first, std::size_t count, const Eigen::Vector3d* centres,
-                     const double* radius2, std::size_t spheres, std::uint64_t* masks)
+                     const double* radius2, std::size_t spheres, std::uint64_t* masks, bool allow_avx2)
 {
   static_assert(AabbLanes::kLanes == 4, "the kernels work on groups of four boxes");
   count = std::min<std::size_t>({ count, 64, first < boxes.size() ? boxes.size() - first : 0 });
@@ -118,7 +112,7 @@ void sphereAabbMasks(const AabbLanes& boxes, std::size_t first, std::size_t coun
   static const bool avx2 = __builtin_cpu_supports("avx2");
   const double* lanes = boxes.group(first / AabbLanes::kLanes);
   const std::size_t groups = (count + 3) / 4;
-  if (avx2)
+  if (avx2 && allow_avx2)
     masksAvx2(lanes, groups, centres, radius2, spheres, masks);
   else
     masksSse2(lanes, groups, centres, radius2, spheres, masks);
@@ -126,6 +120,7 @@ void sphereAabbMasks(const AabbLanes& boxes, std::size_t first, std::size_t coun
     masks[s] &= all;
 #else
   (void)all;
+  (void)allow_avx2;
   for (std::size_t s = 0; s < spheres; ++s)
   {
     masks[s] = 0;

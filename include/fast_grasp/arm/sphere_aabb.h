@@ -73,8 +73,8 @@ private:
 /// AabbLanes::kLanes, count <= 64). The same arithmetic on four boxes per instruction (AVX2
 /// when the CPU has it, else two with SSE2): the same verdicts. Why: a UR5 check tested each
 /// of 5 bodies against each of the narrow passage's 5 boxes one by one, ~1 300 of its ~7 500
-/// instructions.
+/// instructions. allow_avx2 = false takes the SSE2 kernel on any CPU (for its test).
 void sphereAabbMasks(const AabbLanes& boxes, std::size_t first, std::size_t count, const Eigen::Vector3d* centres,
-                     const double* radius2, std::size_t spheres, std::uint64_t* masks);
+                     const double* radius2, std::size_t spheres, std::uint64_t* masks, bool allow_avx2 = true);
 
 }  // namespace fast_grasp
