@@ -191,8 +191,8 @@ TEST(ArmKinematics, BodyFramesBatchIsBodyFramesToTheBit)
 {
   // The batched kinematics must give every frame bodyFrames gives, bit for bit (the planner's
   // validity verdicts, and with them its seeded trees, depend on it): all three robots, groups
-  // of 1 to 4 states, random states, large angles and the multiples of pi / 4 where the sine's
-  // quadrant changes.
+  // of 1 to 4 states, random states, large angles (also past 1e6 rad, where jointSinCos hands
+  // over to libm) and the multiples of pi / 4 where the sine's quadrant changes.
   for (const char* name : { "ur5", "lwr4", "jaco" })
   {
     const ArmKinematics kin =
@@ -216,6 +216,8 @@ TEST(ArmKinematics, BodyFramesBatchIsBodyFramesToTheBit)
         if (trial % 3 == 2)
           for (std::size_t j = 0; j < n; ++j)
             qs[k][static_cast<Eigen::Index>(j)] = kPi / 4 * static_cast<double>(static_cast<int>(rng() % 17) - 8);
+        if (trial % 7 == 6)  // beyond jointSinCos's reduction (libm's sine and cosine)
+          qs[k][static_cast<Eigen::Index>(rng() % n)] = (rng() % 2 ? 1.0 : -1.0) * 3.7e7;
         pointers[k] = qs[k].data();
       }
       kin.bodyFramesBatch(pointers, count, batch.data());

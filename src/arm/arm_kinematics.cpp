@@ -457,14 +457,13 @@ __attribute__((target_clones("avx2", "default")))
 /// at once: GCC vector types, one AVX2 instruction per four (SSE2: two) scalar operations of
 /// the same kind. Each element is the sum walkBodies' Eigen products form, in the same order
 /// (joint_in_body's rows times the frame's columns left to right, then the translation), and
-/// "avx2" does not enable FMA, so every frame is walkBodies' to the bit. sin4 / cos4: per
-/// joint, four lanes (the sine already times the axis sign). frames: per lane (the first
-/// `lanes` are stored), joints + 1 column-major 4 x 4 matrices (Eigen::Isometry3d's
-/// storage), body 0 the identity.
-void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* sin4, const double* cos4,
-                      std::size_t lanes, double* frames)
+/// "avx2" does not enable FMA, so every frame is walkBodies' to the bit. angle4: per joint,
+/// four lanes. frames: per lane (the first `lanes` are stored), joints + 1 column-major
+/// 4 x 4 matrices (Eigen::Isometry3d's storage), body 0 the identity.
+void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* angle4, std::size_t lanes, double* frames)
 {
   typedef double Lanes __attribute__((vector_size(32)));
+  typedef long long Integers __attribute__((vector_size(32)));
   Lanes tr[9], tp[3];
   for (int e = 0; e < 9; ++e)
     tr[e] = Lanes{ 0.0, 0.0, 0.0, 0.0 };
@@ -488,9 +487,67 @@ void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* sin
                             tr[row * 3 + 2] * j.r[2 * 3 + col];
       fp[row] = (tr[row * 3 + 0] * j.p[0] + tr[row * 3 + 1] * j.p[1] + tr[row * 3 + 2] * j.p[2]) + tp[row];
     }
+    // jointSinCos on four lanes: the same reduction and polynomials, operation by operation;
+    // the quadrant's conversion and the final choice lane by lane, and lanes outside
+    // |angle| < 1e6 (and NaN) from jointSinCos itself (libm).
+    Lanes angle;
+    std::memcpy(&angle, angle4 + 4 * k, sizeof angle);
+    const Lanes scaled = angle * 0.63661977236758134308;  // 2 / pi
+    const Lanes half = scaled >= 0.0 ? Lanes{ 0.5, 0.5, 0.5, 0.5 } : Lanes{ -0.5, -0.5, -0.5, -0.5 };
+    const Lanes rounded = scaled + half;
+    Integers quadrant;
+    Lanes q;
+    for (int lane = 0; lane < 4; ++lane)
+    {
+      // Lanes jointSinCos hands to libm convert nothing (their result is replaced below).
+      quadrant[lane] = std::abs(angle[lane]) < 1e6 ? static_cast<long long>(rounded[lane]) : 0;
+      q[lane] = static_cast<double>(quadrant[lane]);
+    }
+    const Lanes r = ((angle - q * 1.57079625129699707031e+00) - q * 7.54978941586159635335e-08) -
+                    q * 5.39030285815811905290e-15;
+    const Lanes z = r * r;
+    const Lanes sin_r =
+        r + r * z *
+                (-1.66666666666666307295e-01 +
+                 z * (8.33333333332211858878e-03 +
+                      z * (-1.98412698295895385996e-04 +
+                           z * (2.75573136213857245213e-06 + z * (-2.50507477628578072866e-08 + z * 1.58962301576546568060e-10)))));
+    const Lanes cos_r =
+        1.0 - 0.5 * z +
+        z * z *
+            (4.16666666666665929218e-02 +
+             z * (-1.38888888888730564116e-03 +
+                  z * (2.48015872888517045348e-05 +
+                       z * (-2.75573141792967388112e-07 + z * (2.08757008419747316778e-09 + z * -1.13585365213876817300e-11)))));
     Lanes c, sn;
-    std::memcpy(&c, cos4 + 4 * k, sizeof c);
-    std::memcpy(&sn, sin4 + 4 * k, sizeof sn);
+    for (int lane = 0; lane < 4; ++lane)
+    {
+      double sl = 0.0, cl = 1.0;
+      if (!(std::abs(angle[lane]) < 1e6))
+        jointSinCos(angle[lane], sl, cl);
+      else
+        switch (quadrant[lane] & 3)
+        {
+          case 0:
+            sl = sin_r[lane];
+            cl = cos_r[lane];
+            break;
+          case 1:
+            sl = cos_r[lane];
+            cl = -sin_r[lane];
+            break;
+          case 2:
+            sl = -sin_r[lane];
+            cl = -cos_r[lane];
+            break;
+          default:
+            sl = -cos_r[lane];
+            cl = sin_r[lane];
+            break;
+        }
+      sn[lane] = sl * j.axis_sign;
+      c[lane] = cl;
+    }
     for (int row = 0; row < 3; ++row)
     {
       const Lanes cu = fr[row * 3 + j.u], cv = fr[row * 3 + j.v];
@@ -533,22 +590,15 @@ void ArmKinematics::bodyFramesBatch(const double* const* qs, std::size_t count, 
       });
     return;
   }
-  double sin4[4 * kMaxBatchJoints], cos4[4 * kMaxBatchJoints];
+  double angle4[4 * kMaxBatchJoints];
   for (std::size_t k = 0; k < n; ++k)
   {
     const BatchJoint& j = model_->batch_joints[k];
     for (std::size_t lane = 0; lane < 4; ++lane)
-    {
-      // Lanes past count turn by 0 and are not stored.
-      double sn = 0.0, c = 1.0;
-      if (lane < count)
-        jointSinCos(qs[lane][j.joint_index], sn, c);
-      sin4[4 * k + lane] = sn * j.axis_sign;
-      cos4[4 * k + lane] = c;
-    }
+      angle4[4 * k + lane] = lane < count ? qs[lane][j.joint_index] : 0.0;  // lanes past count: not stored
   }
   static_assert(sizeof(Eigen::Isometry3d) == 16 * sizeof(double), "Isometry3d is a plain 4 x 4 matrix");
-  bodyFramesOfFour(model_->batch_joints.data(), n, sin4, cos4, count, frames[0].data());
+  bodyFramesOfFour(model_->batch_joints.data(), n, angle4, count, frames[0].data());
 }
 
 Eigen::Isometry3d ArmKinematics::linkInBodyFrame(std::size_t link_index) const
