@@ -1,5 +1,4 @@
 #include "fast_grasp/arm/arm_rrt_connect.h"
-#include "fast_grasp/arm/arm_motion_validator.h"
 
 #include <ompl/base/DiscreteMotionValidator.h>
 #include <ompl/base/goals/GoalSampleableRegion.h>
