@@ -1,5 +1,6 @@
 // FCL collision of the UR5 model: self, table, OctoMap obstacles, self filter, finger/target rule.
 #include "fast_grasp/arm/robot_collision.h"
+#include "fast_grasp/arm/sphere_aabb.h"
 
 #include <gtest/gtest.h>
 
@@ -265,4 +266,91 @@ TEST(RobotCollision, CulledCheckAgreesWithFclAlone)
     const Eigen::VectorXd q = kin.randomConfiguration(rng);
     EXPECT_EQ(robot.inSelfCollision(q), robot.inCollision(q, fcl_only)) << q.transpose();
   }
+}
+
+TEST(SphereAabb, MaskGivesTheOneBoxVerdicts)
+{
+  // sphereAabbMasks must answer sphereMayTouchAabb for every box, bit for bit: random boxes and
+  // spheres, and spheres exactly touching a face, an edge or a corner (radius squared equal to
+  // the squared gap), inside a box, of radius 0; 70 boxes, so masks of several calls and a
+  // last group with padding lanes.
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> coordinate(-1.0, 1.0), size(0.0, 0.5);
+  std::vector<Eigen::Vector3d> lo, hi;
+  for (int k = 0; k < 70; ++k)
+  {
+    const Eigen::Vector3d a(coordinate(rng), coordinate(rng), coordinate(rng));
+    lo.push_back(a);
+    hi.push_back(a + Eigen::Vector3d(size(rng), size(rng), size(rng)));
+  }
+  hi[5] = lo[5];  // a degenerate (point) box
+  fast_grasp::AabbLanes lanes;
+  lanes.assign(lo, hi);
+  ASSERT_EQ(lanes.size(), 70u);
+  int reached = 0, missed = 0;
+  for (int trial = 0; trial < 20000; ++trial)
+  {
+    Eigen::Vector3d centre(coordinate(rng), coordinate(rng), coordinate(rng));
+    double radius = size(rng);
+    const std::size_t near = rng() % 70;
+    switch (trial % 5)
+    {
+      case 1:  // on a face, edge or corner of a box, radius 0
+        for (int axis = 0; axis < 3; ++axis)
+          if (rng() % 2)
+            centre[axis] = rng() % 2 ? lo[near][axis] : hi[near][axis];
+        radius = 0.0;
+        break;
+      case 2:  // exactly touching a box: radius squared = the squared gap (below)
+        break;
+      case 3:  // inside a box
+        centre = 0.5 * (lo[near] + hi[near]);
+        break;
+      default:
+        break;
+    }
+    const double radius2 = trial % 5 == 2 ? [&] {
+      Eigen::Vector3d gap;
+      for (int axis = 0; axis < 3; ++axis)
+        gap[axis] = std::max(0.0, std::max(lo[near][axis] - centre[axis], centre[axis] - hi[near][axis]));
+      return (gap.x() * gap.x() + gap.y() * gap.y()) + gap.z() * gap.z();
+    }()
+                                          : radius * radius;
+    // Three spheres per call: this one, one that is no sphere (negative radius squared:
+    // mask 0) and this one again.
+    const Eigen::Vector3d centres[3] = { centre, centre, centre };
+    const double radii2[3] = { radius2, -1.0, radius2 };
+    for (std::size_t first = 0; first < 70; first += 64)
+    {
+      std::uint64_t masks[3] = { 1, 1, 1 }, sse2[3] = { 1, 1, 1 };
+      fast_grasp::sphereAabbMasks(lanes, first, 64, centres, radii2, 3, masks);
+      fast_grasp::sphereAabbMasks(lanes, first, 64, centres, radii2, 3, sse2, false);
+      const std::uint64_t mask = masks[0];
+      EXPECT_EQ(masks[1], 0u);
+      EXPECT_EQ(masks[2], mask);
+      ASSERT_EQ(sse2[0], mask);  // the SSE2 kernel too
+      EXPECT_EQ(sse2[1], 0u);
+      for (std::size_t k = first; k < 70 && k < first + 64; ++k)
+      {
+        const bool expected = fast_grasp::sphereMayTouchAabb(centre, radius2, lo[k], hi[k]);
+        ASSERT_EQ(((mask >> (k - first)) & 1u) != 0, expected) << "trial " << trial << " box " << k;
+        (expected ? reached : missed) += 1;
+      }
+      // No bits past the boxes.
+      if (first + 64 > 70)
+        EXPECT_EQ(mask >> (70 - first), 0u);
+    }
+  }
+  EXPECT_GT(reached, 20000);
+  EXPECT_GT(missed, 20000);
+  // Fewer boxes than asked for, and none at all; the corners read back.
+  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  const double everything = 100.0;
+  std::uint64_t mask = 0;
+  fast_grasp::sphereAabbMasks(lanes, 68, 64, &origin, &everything, 1, &mask);
+  EXPECT_EQ(mask, 3u);
+  fast_grasp::sphereAabbMasks(fast_grasp::AabbLanes(), 0, 64, &origin, &everything, 1, &mask);
+  EXPECT_EQ(mask, 0u);
+  EXPECT_EQ(lanes.lo(69), lo[69]);
+  EXPECT_EQ(lanes.hi(42), hi[42]);
 }

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -186,6 +187,56 @@ TEST(ArmKinematics, BadInputGivesNoSolution)
 // (absolute: a rounding step of values near 1) on a dense sweep of joint angles, at and next to
 // the multiples of pi/4 where its quadrants and polynomials meet, and on large angles; libm's
 // answer beyond its range and for NaN.
+TEST(ArmKinematics, BodyFramesBatchIsBodyFramesToTheBit)
+{
+  // The batched kinematics must give every frame bodyFrames gives, bit for bit (the planner's
+  // validity verdicts, and with them its seeded trees, depend on it): all three robots, groups
+  // of 1 to 4 states, random states, large angles (also past 1e6 rad, where jointSinCos hands
+  // over to libm) and the multiples of pi / 4 where the sine's quadrant changes.
+  for (const char* name : { "ur5", "lwr4", "jaco" })
+  {
+    const ArmKinematics kin =
+        ArmKinematics::fromUrdfFile(std::string(FAST_GRASP_SOURCE_DIR) + "/urdf/" + name + "_gripper_xtion.urdf");
+    const std::size_t n = kin.dof();
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> wide(-50.0, 50.0);
+    std::vector<Eigen::Isometry3d> reference, batch(ArmKinematics::kBodyFrameBatch * (n + 1));
+    int mismatches = 0, compared = 0;
+    for (int trial = 0; trial < 3000; ++trial)
+    {
+      const std::size_t count = 1 + static_cast<std::size_t>(trial) % ArmKinematics::kBodyFrameBatch;
+      std::vector<Eigen::VectorXd> qs(count);
+      const double* pointers[ArmKinematics::kBodyFrameBatch];
+      for (std::size_t k = 0; k < count; ++k)
+      {
+        qs[k] = kin.randomConfiguration(rng);
+        if (trial % 3 == 1)
+          for (std::size_t j = 0; j < n; ++j)
+            qs[k][static_cast<Eigen::Index>(j)] = wide(rng);
+        if (trial % 3 == 2)
+          for (std::size_t j = 0; j < n; ++j)
+            qs[k][static_cast<Eigen::Index>(j)] = kPi / 4 * static_cast<double>(static_cast<int>(rng() % 17) - 8);
+        if (trial % 7 == 6)  // beyond jointSinCos's reduction (libm's sine and cosine)
+          qs[k][static_cast<Eigen::Index>(rng() % n)] = (rng() % 2 ? 1.0 : -1.0) * 3.7e7;
+        pointers[k] = qs[k].data();
+      }
+      kin.bodyFramesBatch(pointers, count, batch.data());
+      for (std::size_t k = 0; k < count; ++k)
+      {
+        kin.bodyFrames(qs[k], reference);
+        ASSERT_EQ(reference.size(), n + 1);
+        for (std::size_t b = 0; b <= n; ++b, ++compared)
+          if (std::memcmp(reference[b].data(), batch[k * (n + 1) + b].data(), 16 * sizeof(double)) != 0 &&
+              mismatches++ == 0)
+            ADD_FAILURE() << name << ": state " << qs[k].transpose() << " body " << b << "\n"
+                          << reference[b].matrix() << "\nvs\n" << batch[k * (n + 1) + b].matrix();
+      }
+    }
+    EXPECT_EQ(mismatches, 0) << name;
+    EXPECT_GT(compared, 3000) << name;
+  }
+}
+
 TEST(JointSinCos, AgreesWithLibm)
 {
   double worst = 0.0, worst_at = 0.0;

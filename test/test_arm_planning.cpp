@@ -1,21 +1,27 @@
 // OMPL planning, time parameterisation and the grasp execution plan on the benchmark scenes
 // and on hand-made bad input.
 #include "fast_grasp/arm/arm_motion_planner.h"
+#include "fast_grasp/arm/arm_motion_validator.h"
+#include "fast_grasp/arm/batch_validity_checker.h"
 #include "fast_grasp/arm/arm_rrt_connect.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/trajectory_timing.h"
-#include "fast_grasp/arm/validity_cache.h"
+#include "cpu_timed_planner.h"  // src/benchmarks (bench_planners)
 
 #include <gtest/gtest.h>
 #include <ompl/base/goals/GoalStates.h>
 #include <ompl/geometric/SimpleSetup.h>
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
+#include <ompl/tools/benchmark/Benchmark.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <random>
 
 namespace
@@ -245,61 +251,6 @@ struct NarrowPassage
   MotionPlanningParams params;
 };
 
-TEST(ValidityCache, GivesTheCheckersVerdictOnRandomAndRepeatedStates)
-{
-  const NarrowPassage np;
-  // A small table, so that states evict each other often.
-  ValidityCache cache(6, 64);
-  std::size_t calls = 0;
-  auto check = [&](const double* q) {
-    ++calls;
-    return np.planner->isValid(Eigen::Map<const Eigen::VectorXd>(q, 6), np.params);
-  };
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> angle(-kPi, kPi);
-  std::uniform_int_distribution<int> pick(0, 99);
-  std::vector<Eigen::VectorXd> seen;
-  std::size_t valid = 0, invalid = 0, queries = 0;
-  for (int i = 0; i < 3000; ++i)
-  {
-    Eigen::VectorXd q(6);
-    const int kind = pick(rng);
-    if (seen.empty() || kind < 50)
-      for (int j = 0; j < 6; ++j)
-        q[j] = angle(rng);
-    else if (kind < 85)
-      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];  // a state asked before
-    else
-    {
-      // One bit away from a state asked before (or -0.0 for 0.0): a different key.
-      q = seen[static_cast<std::size_t>(pick(rng)) % seen.size()];
-      const int j = pick(rng) % 6;
-      q[j] = q[j] == 0.0 ? -0.0 : std::nextafter(q[j], kind % 2 ? 10.0 : -10.0);
-    }
-    seen.push_back(q);
-    const bool expected = np.planner->isValid(q, np.params);
-    const bool answered = cache.valid(q.data(), check);
-    ASSERT_EQ(answered, expected) << i << ": " << q.transpose();
-    ++queries;
-    (expected ? valid : invalid) += 1;
-  }
-  // Both verdicts occur, repeats were answered from the table and everything else was checked.
-  EXPECT_GT(valid, 300u);
-  EXPECT_GT(invalid, 300u);
-  EXPECT_GT(cache.hits(), 100u);
-  EXPECT_EQ(cache.hits() + calls, queries);
-
-  // Keys are the exact bits: 0.0 and -0.0 are different states to the table.
-  ValidityCache signs(1, 16);
-  std::size_t sign_calls = 0;
-  const double zero = 0.0, minus_zero = -0.0;
-  auto positive = [&](const double* x) { ++sign_calls; return !std::signbit(*x); };
-  EXPECT_TRUE(signs.valid(&zero, positive));
-  EXPECT_FALSE(signs.valid(&minus_zero, positive));
-  EXPECT_TRUE(signs.valid(&zero, positive));
-  EXPECT_EQ(sign_calls, 2u);
-}
-
 TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstMinimum)
 {
   std::mt19937 rng(7);
@@ -383,6 +334,188 @@ TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
     EXPECT_GE(data.numGoalVertices(), 1u);
     EXPECT_EQ(data.numEdges() + data.numStartVertices() + data.numGoalVertices(), data.numVertices() + 1);
   }
+}
+
+/// States of the narrow passage: random ones (about half in collision) and pairs bisected
+/// down to 1e-6 rad across a contact (where a different rounding would flip a verdict).
+std::vector<Eigen::VectorXd> randomAndNearContactStates(const NarrowPassage& np, std::mt19937& rng)
+{
+  const ArmKinematics& kin = np.collision.kinematics();
+  std::vector<Eigen::VectorXd> states, free_states, hit_states;
+  for (int i = 0; i < 3000; ++i)
+  {
+    states.push_back(kin.randomConfiguration(rng));
+    (np.collision.inCollision(states.back()) ? hit_states : free_states).push_back(states.back());
+  }
+  for (std::size_t k = 0; k < 300 && !free_states.empty() && !hit_states.empty(); ++k)
+  {
+    Eigen::VectorXd a = free_states[k % free_states.size()], b = hit_states[k % hit_states.size()];
+    while ((b - a).cwiseAbs().maxCoeff() > 1e-6)
+    {
+      const Eigen::VectorXd mid = 0.5 * (a + b);
+      (np.collision.inCollision(mid) ? b : a) = mid;
+    }
+    states.push_back(a);
+    states.push_back(b);
+  }
+  std::shuffle(states.begin(), states.end(), rng);
+  return states;
+}
+
+TEST(RobotCollision, FirstInCollisionGivesInCollisionsVerdictsInOrder)
+{
+  const NarrowPassage np;
+  std::mt19937 rng(5);
+  std::vector<Eigen::VectorXd> states = randomAndNearContactStates(np, rng);
+  // Bad vectors count as collisions, as in inCollision.
+  Eigen::VectorXd nan_state = states[0];
+  nan_state[2] = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::VectorXd short_state = states[1].head(5);
+  int collisions = 0, groups = 0;
+  for (std::size_t first = 0; first + 9 < states.size(); first += 1 + rng() % 9, ++groups)
+  {
+    const std::size_t count = 1 + rng() % 9;  // more than one batch of four too
+    std::vector<const Eigen::VectorXd*> group;
+    for (std::size_t k = 0; k < count; ++k)
+      group.push_back(&states[first + k]);
+    if (groups % 50 == 0)
+      group[rng() % count] = groups % 100 == 0 ? &nan_state : &short_state;
+    std::size_t expected = count;
+    for (std::size_t k = 0; k < count && expected == count; ++k)
+      if (np.collision.inCollision(*group[k]))
+        expected = k;
+    collisions += expected < count ? 1 : 0;
+    ASSERT_EQ(np.collision.firstInCollision(group.data(), count), expected) << "group at " << first;
+  }
+  EXPECT_GT(groups, 500);
+  EXPECT_GT(collisions, 100);
+  EXPECT_EQ(np.collision.firstInCollision(nullptr, 0), 0u);
+}
+
+TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
+{
+  const NarrowPassage np;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  MotionPlanningParams params = np.params;
+  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  const auto setup = np.planner->makeSetup(start, goals, params);
+  const ompl::base::SpaceInformationPtr& si = setup->getSpaceInformation();
+  si->setup();
+  const auto* checker = dynamic_cast<const BatchValidityChecker*>(si->getStateValidityChecker().get());
+  ASSERT_NE(checker, nullptr);
+  ASSERT_NE(dynamic_cast<const ArmMotionValidator*>(si->getMotionValidator().get()), nullptr);
+  std::mt19937 rng(9);
+  const std::vector<Eigen::VectorXd> qs = randomAndNearContactStates(np, rng);
+  std::vector<ompl::base::State*> states;
+  for (const Eigen::VectorXd& q : qs)
+  {
+    states.push_back(si->allocState());
+    si->getStateSpace()->copyFromReals(states.back(), std::vector<double>(q.data(), q.data() + q.size()));
+  }
+  // firstInvalid against the planner's isValid, state by state (groups overlap).
+  int groups = 0, invalid = 0;
+  for (std::size_t first = 0; first + 9 < states.size(); first += 1 + rng() % 5, ++groups)
+  {
+    const std::size_t count = 1 + rng() % 9;
+    std::size_t expected = count;
+    for (std::size_t k = 0; k < count && expected == count; ++k)
+      if (!np.planner->isValid(qs[first + k], params))
+        expected = k;
+    invalid += expected < count ? 1 : 0;
+    ASSERT_EQ(checker->firstInvalid(states.data() + first, count), expected) << "group at " << first;
+  }
+  EXPECT_GT(invalid, 100);
+  // ArmMotionValidator against OMPL's DiscreteMotionValidator on the same space: motions
+  // from valid states to all kinds of states, short and long.
+  ompl::base::DiscreteMotionValidator reference(si);
+  const auto& validator = *si->getMotionValidator();
+  int motions = 0, valid_motions = 0;
+  for (std::size_t k = 0; k + 1 < states.size() && motions < 1500; ++k)
+  {
+    if (!np.planner->isValid(qs[k], params))
+      continue;
+    ompl::base::State* to = states[k + 1];
+    if (k % 2 == 0)  // a short motion: a few states between the ends
+      si->getStateSpace()->interpolate(states[k], states[k + 1], 0.1, to = si->allocState());
+    const bool expected = reference.checkMotion(states[k], to);
+    ASSERT_EQ(validator.checkMotion(states[k], to), expected) << "motion " << k;
+    valid_motions += expected ? 1 : 0;
+    ++motions;
+    if (to != states[k + 1])
+      si->freeState(to);
+  }
+  EXPECT_GT(motions, 500);
+  EXPECT_GT(valid_motions, 50);
+  EXPECT_LT(valid_motions, motions - 50);
+  EXPECT_EQ(validator.getValidMotionCount(), reference.getValidMotionCount());
+  EXPECT_EQ(validator.getInvalidMotionCount(), reference.getInvalidMotionCount());
+  for (ompl::base::State* state : states)
+    si->freeState(state);
+}
+
+TEST(CpuTimedPlanner, RunsThePlannerInOmplsBenchmarkAsIfItRanAlone)
+{
+  // bench_planners hands OMPL's Benchmark this wrapper: the benchmark must see the wrapped
+  // planner's name, parameters and planner data, and the clock must be read when solve() ends.
+  const NarrowPassage np;
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+  std::string why;
+  MotionPlanningParams params = np.params;
+  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  const auto setup = np.planner->makeSetup(start, goals, params);
+  const ompl::base::PlannerPtr inner =
+      ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
+  inner->setName("RRTConnect");
+  const auto timed = std::make_shared<CpuTimedPlanner>(inner);
+  EXPECT_EQ(timed->getName(), "RRTConnect");
+  std::map<std::string, std::string> inner_params, timed_params;
+  inner->params().getParams(inner_params);
+  timed->params().getParams(timed_params);
+  EXPECT_EQ(timed_params, inner_params);
+  EXPECT_EQ(timed_params.at("range"), "0.3125");
+  timed->params().setParam("range", "0.25");  // the wrapper's parameters are the planner's
+  EXPECT_DOUBLE_EQ(inner->as<ArmRRTConnect>()->getRange(), 0.25);
+  timed->params().setParam("range", "0.3125");
+
+  ompl::tools::Benchmark benchmark(*setup, "narrow_passage");
+  benchmark.addPlanner(timed);
+  std::vector<double> cpu_before, cpu_at_end;
+  benchmark.setPreRunEvent([&](const ompl::base::PlannerPtr& p) {
+    EXPECT_EQ(p.get(), timed.get());
+    cpu_before.push_back(processCpuSeconds());
+  });
+  benchmark.setPostRunEvent([&](const ompl::base::PlannerPtr&, ompl::tools::Benchmark::RunProperties&) {
+    cpu_at_end.push_back(timed->cpuSecondsAtSolveEnd());
+    // The end of solve() lies between the pre-run event and now.
+    EXPECT_GE(cpu_at_end.back(), cpu_before.back());
+    EXPECT_LE(cpu_at_end.back(), processCpuSeconds());
+    // The solution is the wrapped planner's: exact, every segment a valid motion.
+    ASSERT_TRUE(setup->haveExactSolutionPath());
+    EXPECT_TRUE(setup->getSolutionPath().check());
+  });
+  ompl::tools::Benchmark::Request request(10.0, 4096.0, 3, 0.5, false, false, false);
+  benchmark.benchmark(request);
+  ASSERT_EQ(cpu_at_end.size(), 3u);
+  const auto& experiment = benchmark.getRecordedExperimentData();
+  ASSERT_EQ(experiment.planners.size(), 1u);
+  EXPECT_EQ(experiment.planners[0].name, "geometric_RRTConnect");
+  EXPECT_EQ(experiment.planners[0].common.at("range"), "0.3125");
+  for (const auto& run : experiment.planners[0].runs)
+  {
+    EXPECT_EQ(run.at("solved BOOLEAN"), "1");
+    EXPECT_EQ(run.at("correct solution BOOLEAN"), "1");
+    // The planner data came through: both trees, at least the path's states.
+    EXPECT_GE(std::stoi(run.at("graph states INTEGER")), std::stoi(run.at("solution segments INTEGER")) + 1);
+    EXPECT_GE(std::stoi(run.at("graph motions INTEGER")), 1);
+  }
+  // clear() reaches the wrapped planner: no tree left.
+  timed->clear();
+  ompl::base::PlannerData data(setup->getSpaceInformation());
+  inner->getPlannerData(data);
+  EXPECT_EQ(data.numVertices(), 0u);
 }
 
 TEST(ArmMotionPlanner, OctomapBoxForcesADetour)

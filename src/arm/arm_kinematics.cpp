@@ -9,9 +9,14 @@
 
 #include <Eigen/Cholesky>
 
+#if defined(__x86_64__) || defined(__i386__)
+#define FAST_GRASP_X86_CLONES 1
+#endif
+
 #include <algorithm>
 #include <ctime>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -76,6 +81,18 @@ struct Rigid
   }
 };
 
+/// A revolute joint about a frame axis as the batched body frames see it: its pre frame in
+/// the previous body frame (rotation row by row, translation), the columns u and v its
+/// rotation turns, and the axis sign.
+struct BatchJoint
+{
+  double r[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+  double p[3] = { 0, 0, 0 };
+  int u = 0, v = 1;
+  int joint_index = 0;
+  double axis_sign = 1.0;
+};
+
 /// One chain segment, KDL-free: pose(q) = pre * joint(q) * post, the joint being a rotation
 /// about (or translation along) `axis` through the origin of the `pre` frame.
 struct ArmKinematics::Model
@@ -113,12 +130,16 @@ struct ArmKinematics::Model
   std::vector<std::size_t> moving_segments;  // per joint: index into segments
   std::vector<Rigid> joint_in_body;          // per joint: its pre frame in the previous body frame
   std::vector<Rigid> link_in_body;           // per link_names entry: pose in body moving_before[link]
+  // bodyFramesBatch: per joint, joint_in_body row by row and the two columns its rotation
+  // turns; empty when a joint is prismatic or turns about an axis that is not a frame axis
+  // (those chains take bodyFrames state by state).
+  std::vector<BatchJoint> batch_joints;
 
   /// Calls visit(body, frame) for body 0 (the identity) and each moving joint's body frame:
   /// one product and one axis rotation per moving joint (walk() spends two products per
   /// moving segment and one per fixed one).
-  template <typename Visit>
-  void walkBodies(const Eigen::VectorXd& q, Visit&& visit) const
+  template <typename Joints, typename Visit>
+  void walkBodies(const Joints& q, Visit&& visit) const
   {
     Rigid t;
     visit(std::size_t(0), t);
@@ -284,6 +305,27 @@ ArmKinematics ArmKinematics::fromUrdfString(const std::string& urdf_xml, const s
       }
       model->link_in_body.push_back(in_body);
     }
+    bool batchable = true;
+    for (std::size_t k = 0; k < model->moving_segments.size(); ++k)
+    {
+      const Model::Segment& s = model->segments[model->moving_segments[k]];
+      batchable = batchable && s.type == Model::JointType::Revolute && s.principal_axis >= 0;
+      BatchJoint j;
+      const Rigid& pre = model->joint_in_body[k];
+      for (int row = 0; row < 3; ++row)
+      {
+        for (int col = 0; col < 3; ++col)
+          j.r[row * 3 + col] = pre.r(row, col);
+        j.p[row] = pre.p[row];
+      }
+      j.u = (s.principal_axis + 1) % 3;
+      j.v = (s.principal_axis + 2) % 3;
+      j.joint_index = s.joint_index;
+      j.axis_sign = s.axis_sign;
+      model->batch_joints.push_back(j);
+    }
+    if (!batchable)
+      model->batch_joints.clear();
   }
   kin.model_ = model;
   kin.lower_rad_ = Eigen::Map<Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
@@ -404,6 +446,159 @@ void ArmKinematics::bodyFrames(const Eigen::VectorXd& q, std::vector<Eigen::Isom
     frames[body].translation() = t.p;
     frames[body].makeAffine();
   });
+}
+
+namespace
+{
+#ifdef FAST_GRASP_X86_CLONES
+__attribute__((target_clones("avx2", "default")))
+#endif
+/// The body frames of four states (lanes), walkBodies' products and rotations on four lanes
+/// at once: GCC vector types, one AVX2 instruction per four (SSE2: two) scalar operations of
+/// the same kind. Each element is the sum walkBodies' Eigen products form, in the same order
+/// (joint_in_body's rows times the frame's columns left to right, then the translation), and
+/// "avx2" does not enable FMA, so every frame is walkBodies' to the bit. angle4: per joint,
+/// four lanes. frames: per lane (the first `lanes` are stored), joints + 1 column-major
+/// 4 x 4 matrices (Eigen::Isometry3d's storage), body 0 the identity.
+void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* angle4, std::size_t lanes, double* frames)
+{
+  typedef double Lanes __attribute__((vector_size(32)));
+  typedef long long Integers __attribute__((vector_size(32)));
+  Lanes tr[9], tp[3];
+  for (int e = 0; e < 9; ++e)
+    tr[e] = Lanes{ 0.0, 0.0, 0.0, 0.0 };
+  tr[0] = tr[4] = tr[8] = Lanes{ 1.0, 1.0, 1.0, 1.0 };
+  tp[0] = tp[1] = tp[2] = Lanes{ 0.0, 0.0, 0.0, 0.0 };
+  const std::size_t stride = 16 * (n + 1);  // doubles per lane
+  for (std::size_t lane = 0; lane < lanes; ++lane)
+  {
+    double* m = frames + lane * stride;
+    for (int e = 0; e < 16; ++e)
+      m[e] = (e % 5 == 0) ? 1.0 : 0.0;
+  }
+  for (std::size_t k = 0; k < n; ++k)
+  {
+    const BatchJoint& j = joints[k];
+    Lanes fr[9], fp[3];
+    for (int row = 0; row < 3; ++row)
+    {
+      for (int col = 0; col < 3; ++col)
+        fr[row * 3 + col] = tr[row * 3 + 0] * j.r[0 * 3 + col] + tr[row * 3 + 1] * j.r[1 * 3 + col] +
+                            tr[row * 3 + 2] * j.r[2 * 3 + col];
+      fp[row] = (tr[row * 3 + 0] * j.p[0] + tr[row * 3 + 1] * j.p[1] + tr[row * 3 + 2] * j.p[2]) + tp[row];
+    }
+    // jointSinCos on four lanes: the same reduction and polynomials, operation by operation;
+    // the quadrant's conversion and the final choice lane by lane, and lanes outside
+    // |angle| < 1e6 (and NaN) from jointSinCos itself (libm).
+    Lanes angle;
+    std::memcpy(&angle, angle4 + 4 * k, sizeof angle);
+    const Lanes scaled = angle * 0.63661977236758134308;  // 2 / pi
+    const Lanes half = scaled >= 0.0 ? Lanes{ 0.5, 0.5, 0.5, 0.5 } : Lanes{ -0.5, -0.5, -0.5, -0.5 };
+    const Lanes rounded = scaled + half;
+    Integers quadrant;
+    Lanes q;
+    for (int lane = 0; lane < 4; ++lane)
+    {
+      // Lanes jointSinCos hands to libm convert nothing (their result is replaced below).
+      quadrant[lane] = std::abs(angle[lane]) < 1e6 ? static_cast<long long>(rounded[lane]) : 0;
+      q[lane] = static_cast<double>(quadrant[lane]);
+    }
+    const Lanes r = ((angle - q * 1.57079625129699707031e+00) - q * 7.54978941586159635335e-08) -
+                    q * 5.39030285815811905290e-15;
+    const Lanes z = r * r;
+    const Lanes sin_r =
+        r + r * z *
+                (-1.66666666666666307295e-01 +
+                 z * (8.33333333332211858878e-03 +
+                      z * (-1.98412698295895385996e-04 +
+                           z * (2.75573136213857245213e-06 + z * (-2.50507477628578072866e-08 + z * 1.58962301576546568060e-10)))));
+    const Lanes cos_r =
+        1.0 - 0.5 * z +
+        z * z *
+            (4.16666666666665929218e-02 +
+             z * (-1.38888888888730564116e-03 +
+                  z * (2.48015872888517045348e-05 +
+                       z * (-2.75573141792967388112e-07 + z * (2.08757008419747316778e-09 + z * -1.13585365213876817300e-11)))));
+    Lanes c, sn;
+    for (int lane = 0; lane < 4; ++lane)
+    {
+      double sl = 0.0, cl = 1.0;
+      if (!(std::abs(angle[lane]) < 1e6))
+        jointSinCos(angle[lane], sl, cl);
+      else
+        switch (quadrant[lane] & 3)
+        {
+          case 0:
+            sl = sin_r[lane];
+            cl = cos_r[lane];
+            break;
+          case 1:
+            sl = cos_r[lane];
+            cl = -sin_r[lane];
+            break;
+          case 2:
+            sl = -sin_r[lane];
+            cl = -cos_r[lane];
+            break;
+          default:
+            sl = -cos_r[lane];
+            cl = sin_r[lane];
+            break;
+        }
+      sn[lane] = sl * j.axis_sign;
+      c[lane] = cl;
+    }
+    for (int row = 0; row < 3; ++row)
+    {
+      const Lanes cu = fr[row * 3 + j.u], cv = fr[row * 3 + j.v];
+      fr[row * 3 + j.u] = c * cu + sn * cv;
+      fr[row * 3 + j.v] = c * cv - sn * cu;
+    }
+    for (int e = 0; e < 9; ++e)
+      tr[e] = fr[e];
+    for (int e = 0; e < 3; ++e)
+      tp[e] = fp[e];
+    for (std::size_t lane = 0; lane < lanes; ++lane)
+    {
+      double* m = frames + lane * stride + 16 * (k + 1);
+      for (int col = 0; col < 3; ++col)
+      {
+        for (int row = 0; row < 3; ++row)
+          m[col * 4 + row] = fr[row * 3 + col][lane];
+        m[col * 4 + 3] = 0.0;
+      }
+      for (int row = 0; row < 3; ++row)
+        m[12 + row] = fp[row][lane];
+      m[15] = 1.0;
+    }
+  }
+}
+}  // namespace
+
+void ArmKinematics::bodyFramesBatch(const double* const* qs, std::size_t count, Eigen::Isometry3d* frames) const
+{
+  const std::size_t n = dof();
+  if (count < 2 || model_->batch_joints.empty() || count > kBodyFrameBatch || n > kMaxBatchJoints)
+  {
+    // One state, or not a chain of frame-axis revolute joints: state by state.
+    for (std::size_t k = 0; k < count; ++k)
+      model_->walkBodies(qs[k], [&](std::size_t b, const Rigid& t) {
+        Eigen::Isometry3d& f = frames[k * (n + 1) + b];
+        f.linear() = t.r;
+        f.translation() = t.p;
+        f.makeAffine();
+      });
+    return;
+  }
+  double angle4[4 * kMaxBatchJoints];
+  for (std::size_t k = 0; k < n; ++k)
+  {
+    const BatchJoint& j = model_->batch_joints[k];
+    for (std::size_t lane = 0; lane < 4; ++lane)
+      angle4[4 * k + lane] = lane < count ? qs[lane][j.joint_index] : 0.0;  // lanes past count: not stored
+  }
+  static_assert(sizeof(Eigen::Isometry3d) == 16 * sizeof(double), "Isometry3d is a plain 4 x 4 matrix");
+  bodyFramesOfFour(model_->batch_joints.data(), n, angle4, count, frames[0].data());
 }
 
 Eigen::Isometry3d ArmKinematics::linkInBodyFrame(std::size_t link_index) const

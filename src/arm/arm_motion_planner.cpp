@@ -1,8 +1,9 @@
 #include "fast_grasp/arm/arm_motion_planner.h"
 
 #include "fast_grasp/arm/arm_rrt_connect.h"
+#include "fast_grasp/arm/arm_motion_validator.h"
+#include "fast_grasp/arm/batch_validity_checker.h"
 #include "fast_grasp/arm/joint_nearest_neighbors.h"
-#include "fast_grasp/arm/validity_cache.h"
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/yaml_file.h"
 
@@ -299,14 +300,16 @@ private:
 };
 
 /// Thread-safe validity: everything is computed from the state (the only scratch is per
-/// thread), and the verdicts are remembered by the state's exact joint values (ValidityCache:
-/// a run of the benchmark checks ~12 % of its states a second time, docs/benchmarks/arms.md,
-/// "Speed work, session 17 (2)").
-class ArmValidityChecker : public ob::StateValidityChecker
+/// thread). No memory of verdicts: a table of them by the joint values' bits (ValidityCache,
+/// session 17) saved instructions but cost time, its lookups missing the CPU caches (UR5
+/// narrow passage -4 %, LWR shelf pick -10 %, end-to-end plan() -9 % CPU without it;
+/// docs/benchmarks/arms.md, "Speed work, session 18"); its hits were mostly the benchmark's
+/// own path checks.
+class ArmValidityChecker : public BatchValidityChecker
 {
 public:
   ArmValidityChecker(const ob::SpaceInformationPtr& si, const ArmMotionPlanner& planner, MotionPlanningParams params)
-    : ob::StateValidityChecker(si)
+    : BatchValidityChecker(si)
     , space_(si->getStateSpace()->as<ArmStateSpace>())
     , planner_(planner)
     , params_(std::move(params))
@@ -319,16 +322,36 @@ public:
     thread_local Eigen::VectorXd q;
     q.resize(static_cast<Eigen::Index>(space_->dof()));
     space_->toJoints(state, q.data());
-    return cache_.valid(q.data(), [this](const double*) { return planner_.isValid(q, params_); });
+    return planner_.isValid(q, params_);
+  }
+  std::size_t firstInvalid(const ob::State* const* states, std::size_t count) const override
+  {
+    struct Scratch
+    {
+      std::vector<Eigen::VectorXd> qs;
+      std::vector<const Eigen::VectorXd*> pointers;
+    };
+    thread_local Scratch scratch;
+    Scratch& s = scratch;  // one thread-local lookup
+    const auto dof = static_cast<Eigen::Index>(space_->dof());
+    if (s.qs.size() < count)
+    {
+      s.qs.resize(count);
+      s.pointers.resize(count);
+    }
+    for (std::size_t k = 0; k < count; ++k)
+    {
+      s.qs[k].resize(dof);
+      space_->toJoints(states[k], s.qs[k].data());
+      s.pointers[k] = &s.qs[k];
+    }
+    return planner_.firstInvalid(s.pointers.data(), count, params_);
   }
 
 private:
   const ArmStateSpace* space_;
   const ArmMotionPlanner& planner_;
   const MotionPlanningParams params_;
-  // The planner's collision snapshot and params_ are fixed for this checker's life, so its
-  // verdict depends on the joint values alone.
-  mutable ValidityCache cache_{ space_->dof() };
 };
 
 /// Uniform sampling followed by a few damped Gauss-Newton steps that turn the grasp frame's
@@ -507,6 +530,21 @@ bool ArmMotionPlanner::isValid(const Eigen::VectorXd& q, const MotionPlanningPar
   return !collision_.inCollision(q, CollisionCheckOptions(), why);
 }
 
+std::size_t ArmMotionPlanner::firstInvalid(const Eigen::VectorXd* const* qs, std::size_t count,
+                                           const MotionPlanningParams& params) const
+{
+  // isValid's joint-space tests state by state (cheap), then the collision tests of the states
+  // before the first that fails them, together; firstInCollision answers `limit` when those
+  // are all clear.
+  const ArmKinematics& kin = collision_.kinematics();
+  std::size_t limit = count;
+  for (std::size_t k = 0; k < count && limit == count; ++k)
+    if (!kin.withinLimits(*qs[k], 1e-9) ||
+        (params.keep_gripper_horizontal && gripperTiltRad(*qs[k]) > params.horizontal_tolerance_rad))
+      limit = k;
+  return collision_.firstInCollision(qs, limit, CollisionCheckOptions());
+}
+
 std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::VectorXd& start,
                                                              const std::vector<Eigen::VectorXd>& goals,
                                                              const MotionPlanningParams& params) const
@@ -529,6 +567,8 @@ std::shared_ptr<og::SimpleSetup> ArmMotionPlanner::makeSetup(const Eigen::Vector
   setup->setStateValidityChecker(
       std::make_shared<ArmValidityChecker>(setup->getSpaceInformation(), *this, params));
   setup->getSpaceInformation()->setStateValidityCheckingResolution(params.longest_valid_segment_fraction);
+  // OMPL's discrete motion checks, a motion's states handed to the checker together.
+  setup->getSpaceInformation()->setMotionValidator(std::make_shared<ArmMotionValidator>(setup->getSpaceInformation()));
   ob::ScopedState<> start_state(space);
   space->fromEigen(start, start_state.get());
   setup->setStartState(start_state);

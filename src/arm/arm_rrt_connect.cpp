@@ -42,6 +42,7 @@ void ArmRRTConnect::setup()
   start_tree_->setDistanceFunction(distance);
   goal_tree_->setDistanceFunction(distance);
   own_motion_check_ = dynamic_cast<const ob::DiscreteMotionValidator*>(si_->getMotionValidator().get()) != nullptr;
+  batch_checker_ = dynamic_cast<const BatchValidityChecker*>(si_->getStateValidityChecker().get());
 }
 
 void ArmRRTConnect::freeMemory()
@@ -82,13 +83,16 @@ bool ArmRRTConnect::checkMotion(const ob::State* a, const ob::State* b, const ob
       return si_->checkMotion(a, b);
     return si_->isValid(a) && si_->checkMotion(a, b);
   }
+  const unsigned segments = si_->getStateSpace()->validSegmentCount(a, b);
+  if (batch_checker_)
+    return checkMotionStates(*si_, *batch_checker_, a, b, fresh, segments, scratch_);
+  // `fresh` first, then the interior states 1 .. segments-1 in breadth-first bisection order:
+  // a collision somewhere along the motion is found after a few checks, not after walking up
+  // to it.
   if (!si_->isValid(fresh))
     return false;
-  const unsigned segments = si_->getStateSpace()->validSegmentCount(a, b);
   if (segments < 2)
     return true;
-  // Breadth-first bisection of the interior states 1 .. segments-1: a collision somewhere
-  // along the motion is found after a few checks, not after walking up to it.
   bisection_.clear();
   bisection_.emplace_back(1u, segments - 1);
   for (std::size_t next = 0; next < bisection_.size(); ++next)
@@ -97,8 +101,8 @@ bool ArmRRTConnect::checkMotion(const ob::State* a, const ob::State* b, const ob
     const unsigned high = bisection_[next].second;
     const unsigned mid = (low + high) / 2;
     si_->getStateSpace()->interpolate(a, b, static_cast<double>(mid) / static_cast<double>(segments),
-                                      interior_state_);
-    if (!si_->isValid(interior_state_))
+                                      scratch_.states[0]);
+    if (!si_->isValid(scratch_.states[0]))
       return false;
     if (low < mid)
       bisection_.emplace_back(low, mid - 1);
@@ -170,7 +174,8 @@ ob::PlannerStatus ArmRRTConnect::solve(const ob::PlannerTerminationCondition& pt
 
   ob::State* target = si_->allocState();
   step_state_ = si_->allocState();
-  interior_state_ = si_->allocState();
+  for (ob::State*& state : scratch_.states)
+    state = si_->allocState();
   Motion target_motion;
   target_motion.state = target;
   bool solved = false;
@@ -242,8 +247,12 @@ ob::PlannerStatus ArmRRTConnect::solve(const ob::PlannerTerminationCondition& pt
   }
   si_->freeState(target);
   si_->freeState(step_state_);
-  si_->freeState(interior_state_);
-  step_state_ = interior_state_ = nullptr;
+  step_state_ = nullptr;
+  for (ob::State*& state : scratch_.states)
+  {
+    si_->freeState(state);
+    state = nullptr;
+  }
   OMPL_INFORM("%s: %u states (%u start + %u goal)", getName().c_str(),
               static_cast<unsigned>(start_tree_->size() + goal_tree_->size()),
               static_cast<unsigned>(start_tree_->size()), static_cast<unsigned>(goal_tree_->size()));

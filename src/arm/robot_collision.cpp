@@ -1,12 +1,10 @@
 #include "fast_grasp/arm/robot_collision.h"
 
+#include "fast_grasp/arm/sphere_aabb.h"
+
 #include <fcl/fcl.h>
 #include <octomap/OcTree.h>
 #include <urdf_parser/urdf_parser.h>
-
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
 
 #include <algorithm>
 #include <cmath>
@@ -50,6 +48,9 @@ struct RobotCollision::Geometry
   // pairs are hand pairs).
   std::vector<Eigen::Vector3d> body_centre;
   std::vector<double> body_radius;  // 0 for a body without shapes
+  // Broad phase against the scene's boxes: per body, (body_radius + kGjkToleranceM)^2, -1 for
+  // body 0 (fixed to the base, never tested against the scene) and bodies without shapes.
+  std::vector<double> body_box_reach2;
   struct BodyPairPairs
   {
     int body_a = 0, body_b = 0;
@@ -113,6 +114,7 @@ struct RobotCollision::Scene
   std::shared_ptr<const fcl::OcTreed> target_fcl;
   Bounds target_bounds;
   std::vector<Box> boxes;
+  AabbLanes box_lanes;  // the boxes' aabb_min / aabb_max, four at a time (sphereAabbMask)
 };
 
 namespace
@@ -331,31 +333,6 @@ PairVerdict classifyPair(const ConvexShape& a, const Eigen::Isometry3d& ta, cons
   return boxes ? PairVerdict::Touching : PairVerdict::Unknown;
 }
 
-/// Can a sphere (centre, radius squared) reach an axis-aligned box [lo, hi]? The exact
-/// squared distance from the centre to the box, branch-free.
-inline bool sphereMayTouchAabb(const Eigen::Vector3d& centre, double radius2, const Eigen::Vector3d& lo,
-                               const Eigen::Vector3d& hi)
-{
-#ifdef __SSE2__
-  // maxpd: GCC compiles std::max on doubles to compare-and-branch (its result differs from
-  // maxsd's on +-0), six unpredictable branches per test.
-  const __m128d zero = _mm_setzero_pd();
-  const __m128d c_xy = _mm_loadu_pd(centre.data()), c_z = _mm_load_sd(centre.data() + 2);
-  const __m128d g_xy = _mm_max_pd(
-      zero, _mm_max_pd(_mm_sub_pd(_mm_loadu_pd(lo.data()), c_xy), _mm_sub_pd(c_xy, _mm_loadu_pd(hi.data()))));
-  const __m128d g_z = _mm_max_sd(
-      zero, _mm_max_sd(_mm_sub_sd(_mm_load_sd(lo.data() + 2), c_z), _mm_sub_sd(c_z, _mm_load_sd(hi.data() + 2))));
-  const __m128d sq_xy = _mm_mul_pd(g_xy, g_xy);
-  const __m128d sum = _mm_add_sd(_mm_add_sd(sq_xy, _mm_unpackhi_pd(sq_xy, sq_xy)), _mm_mul_sd(g_z, g_z));
-  return _mm_cvtsd_f64(sum) <= radius2;
-#else
-  const double gx = std::max(0.0, std::max(lo.x() - centre.x(), centre.x() - hi.x()));
-  const double gy = std::max(0.0, std::max(lo.y() - centre.y(), centre.y() - hi.y()));
-  const double gz = std::max(0.0, std::max(lo.z() - centre.z(), centre.z() - hi.z()));
-  return gx * gx + gy * gy + gz * gz <= radius2;
-#endif
-}
-
 /// Does one of a scene box's face normals separate a shape from it? The first axes to try for
 /// a robot shape near a table, wall or shelf board (its closest-point axis, classifyPair's
 /// first, rarely separates from a large flat box): the shoulder's cylinder beside the table
@@ -563,6 +540,13 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
           std::max(geometry->body_radius[b], (geometry->in_body_translation[i] - geometry->body_centre[b]).norm() +
                                                  geometry->convex[i].bounding_radius + 1e-9);
     }
+    geometry->body_box_reach2.assign(bodies, -1.0);
+    for (std::size_t b = 1; b < bodies; ++b)  // body 0 is fixed to the base: never tested
+      if (geometry->body_radius[b] > 0.0)
+      {
+        const double reach = geometry->body_radius[b] + kGjkToleranceM;
+        geometry->body_box_reach2[b] = reach * reach;
+      }
   }
   geometry_ = geometry;
   // Self-collision: bodies joined by one joint touch by design (the URDF's adjacent links);
@@ -691,6 +675,13 @@ void RobotCollision::addBox(const std::string& name, const Eigen::Vector3d& size
   box.aabb_min = pose.translation() - box.aabb_half_m;
   box.aabb_max = pose.translation() + box.aabb_half_m;
   scene->boxes.push_back(box);
+  std::vector<Eigen::Vector3d> lo, hi;
+  for (const Scene::Box& b : scene->boxes)
+  {
+    lo.push_back(b.aabb_min);
+    hi.push_back(b.aabb_max);
+  }
+  scene->box_lanes.assign(lo, hi);
   scene_ = scene;
 }
 
@@ -874,6 +865,42 @@ bool RobotCollision::inCollision(const Eigen::VectorXd& q, const CollisionCheckO
   return inCollisionAt(frames, options, why);
 }
 
+std::size_t RobotCollision::firstInCollision(const Eigen::VectorXd* const* qs, std::size_t count,
+                                             const CollisionCheckOptions& options) const
+{
+  constexpr std::size_t kBatch = ArmKinematics::kBodyFrameBatch;
+  const std::size_t n = kinematics_.dof();
+  thread_local std::vector<Eigen::Isometry3d> bodies;  // per-thread scratch, see shapeFrames()
+  thread_local ShapeFrames frames;
+  bodies.resize(kBatch * (n + 1));
+  Eigen::Isometry3d* body_data = bodies.data();
+  ShapeFrames& scratch = frames;
+  const double* joints[kBatch];
+  for (std::size_t first = 0; first < count; first += kBatch)
+  {
+    const std::size_t group = std::min(kBatch, count - first);
+    // A vector of the wrong size or with NaNs is a collision (inCollision): the group's
+    // kinematics stop before it.
+    std::size_t usable = 0;
+    while (usable < group && qs[first + usable]->size() == static_cast<Eigen::Index>(n) &&
+           qs[first + usable]->allFinite())
+    {
+      joints[usable] = qs[first + usable]->data();
+      ++usable;
+    }
+    kinematics_.bodyFramesBatch(joints, usable, body_data);
+    for (std::size_t k = 0; k < usable; ++k)
+    {
+      scratch.reset(shapes_, *geometry_, body_data + k * (n + 1));
+      if (inCollisionAt(scratch, options, nullptr))
+        return first + k;
+    }
+    if (usable < group)
+      return first + usable;
+  }
+  return count;
+}
+
 bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOptions& options, std::string* why) const
 {
   // The shape frames arrive as a parameter, see shapeFrames().
@@ -912,17 +939,10 @@ bool RobotCollision::inCollisionAt(ShapeFrames& frames, const CollisionCheckOpti
     for (std::size_t first = 0; first < boxes; first += 64)
     {
       const std::size_t last = std::min(boxes, first + 64);
-      for (std::size_t b = 1; b < bodies; ++b)  // body 0 is fixed to the base: never tested
-      {
-        std::uint64_t mask = 0;
-        const double reach = geometry_->body_radius[b] + kGjkToleranceM;
-        if (geometry_->body_radius[b] > 0.0)
-          for (std::size_t k = first; k < last; ++k)
-            if (sphereMayTouchAabb(frames.body_centres[b], reach * reach, scene.boxes[k].aabb_min,
-                                   scene.boxes[k].aabb_max))
-              mask |= std::uint64_t(1) << (k - first);
-        frames.body_box_mask[b] = mask;
-      }
+      // Every body against up to 64 boxes in one call (body 0, fixed to the base, and bodies
+      // without shapes have no sphere: mask 0).
+      sphereAabbMasks(scene.box_lanes, first, last - first, frames.body_centres.data(),
+                      geometry_->body_box_reach2.data(), bodies, frames.body_box_mask.data());
       for (std::size_t i = 0; i < n; ++i)
       {
         if (shapes_[i].body == 0)

@@ -97,6 +97,11 @@ public:
 
   /// State validity as the planner sees it (limits, collision, optional constraint).
   bool isValid(const Eigen::VectorXd& q, const MotionPlanningParams& params, std::string* why = nullptr) const;
+  /// isValid of `count` states in order, up to the first invalid one: its index, or count
+  /// when all are valid (the states after it are not checked). The same verdicts; the
+  /// collision tests of several states share their forward kinematics
+  /// (RobotCollision::firstInCollision).
+  std::size_t firstInvalid(const Eigen::VectorXd* const* qs, std::size_t count, const MotionPlanningParams& params) const;
   /// Angle (rad) between the grasp frame's Z axis and the vertical (sign-agnostic).
   double gripperTiltRad(const Eigen::VectorXd& q) const;
 

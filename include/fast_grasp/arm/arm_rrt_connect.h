@@ -2,6 +2,8 @@
 // planner's benchmarks (issue 13). ROS-free.
 #pragma once
 
+#include "fast_grasp/arm/arm_motion_validator.h"
+
 #include <ompl/base/Planner.h>
 #include <ompl/base/StateSampler.h>
 #include <ompl/datastructures/NearestNeighbors.h>
@@ -90,7 +92,10 @@ private:
   double range_ = 0.0;
   bool own_motion_check_ = false;  // the space information validates motions discretely
   ompl::base::State* step_state_ = nullptr;      // scratch: the EXTEND step's end
-  ompl::base::State* interior_state_ = nullptr;  // scratch: a motion's interior state
+  // With a BatchValidityChecker a motion's states are checked several at a time
+  // (checkMotionStates: the same states in the same order, the same verdicts).
+  const BatchValidityChecker* batch_checker_ = nullptr;
+  MotionCheckScratch scratch_;                            // its states: a motion's interior states
   std::vector<std::pair<unsigned, unsigned>> bisection_;  // scratch: intervals to check
   std::pair<const ompl::base::State*, const ompl::base::State*> connection_{ nullptr, nullptr };
 };

@@ -96,6 +96,14 @@ public:
   /// A q of the wrong size or with NaNs counts as a collision.
   bool inCollision(const Eigen::VectorXd& q, const CollisionCheckOptions& options = CollisionCheckOptions(),
                    std::string* why = nullptr) const;
+  /// inCollision of `count` joint vectors in order, up to the first in collision: its index,
+  /// or count when all are clear (the states after it are not checked). Each verdict is
+  /// inCollision's: the forward kinematics of four states run together
+  /// (ArmKinematics::bodyFramesBatch, the same frames to the bit), the tests state by state.
+  /// Why: a motion's states are checked together (ArmRRTConnect, ArmMotionValidator), and
+  /// forward kinematics was a fifth of a check.
+  std::size_t firstInCollision(const Eigen::VectorXd* const* qs, std::size_t count,
+                               const CollisionCheckOptions& options = CollisionCheckOptions()) const;
   bool inSelfCollision(const Eigen::VectorXd& q, std::string* why = nullptr) const;
   /// Points of `cloud` outside the robot at q (shapes inflated by padding_m).
   pcl::PointCloud<pcl::PointXYZ> removeRobotPoints(const pcl::PointCloud<pcl::PointXYZ>& cloud,
