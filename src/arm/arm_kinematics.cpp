@@ -503,22 +503,11 @@ void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* ang
       quadrant[lane] = std::abs(angle[lane]) < 1e6 ? static_cast<long long>(rounded[lane]) : 0;
       q[lane] = static_cast<double>(quadrant[lane]);
     }
-    const Lanes r = ((angle - q * 1.57079625129699707031e+00) - q * 7.54978941586159635335e-08) -
-                    q * 5.39030285815811905290e-15;
+    Lanes r, sin_r, cos_r;
+    sin_cos_detail::reduceAngle(angle, q, r);
     const Lanes z = r * r;
-    const Lanes sin_r =
-        r + r * z *
-                (-1.66666666666666307295e-01 +
-                 z * (8.33333333332211858878e-03 +
-                      z * (-1.98412698295895385996e-04 +
-                           z * (2.75573136213857245213e-06 + z * (-2.50507477628578072866e-08 + z * 1.58962301576546568060e-10)))));
-    const Lanes cos_r =
-        1.0 - 0.5 * z +
-        z * z *
-            (4.16666666666665929218e-02 +
-             z * (-1.38888888888730564116e-03 +
-                  z * (2.48015872888517045348e-05 +
-                       z * (-2.75573141792967388112e-07 + z * (2.08757008419747316778e-09 + z * -1.13585365213876817300e-11)))));
+    sin_cos_detail::sinOfReduced(r, z, sin_r);
+    sin_cos_detail::cosOfReduced(z, cos_r);
     Lanes c, sn;
     for (int lane = 0; lane < 4; ++lane)
     {
@@ -526,25 +515,7 @@ void bodyFramesOfFour(const BatchJoint* joints, std::size_t n, const double* ang
       if (!(std::abs(angle[lane]) < 1e6))
         jointSinCos(angle[lane], sl, cl);
       else
-        switch (quadrant[lane] & 3)
-        {
-          case 0:
-            sl = sin_r[lane];
-            cl = cos_r[lane];
-            break;
-          case 1:
-            sl = cos_r[lane];
-            cl = -sin_r[lane];
-            break;
-          case 2:
-            sl = -sin_r[lane];
-            cl = -cos_r[lane];
-            break;
-          default:
-            sl = -cos_r[lane];
-            cl = sin_r[lane];
-            break;
-        }
+        sin_cos_detail::rotateByQuadrant(quadrant[lane], sin_r[lane], cos_r[lane], sl, cl);
       sn[lane] = sl * j.axis_sign;
       c[lane] = cl;
     }
