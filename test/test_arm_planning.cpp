@@ -251,6 +251,18 @@ struct NarrowPassage
   MotionPlanningParams params;
 };
 
+/// The narrow passage resolved to its start and IK goals (ASSERTs that it resolves).
+struct ResolvedNarrowPassage : NarrowPassage
+{
+  void resolve()
+  {
+    std::string why;
+    ASSERT_TRUE(resolveScene(scene, *planner, params, start, goals, &why)) << why;
+  }
+  Eigen::VectorXd start;
+  std::vector<Eigen::VectorXd> goals;
+};
+
 TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstMinimum)
 {
   std::mt19937 rng(7);
@@ -295,12 +307,11 @@ TEST(JointNearestNeighbors, VectorisedScanGivesTheScalarDistancesAndEigensFirstM
 
 TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
 {
-  const NarrowPassage np;
-  Eigen::VectorXd start;
-  std::vector<Eigen::VectorXd> goals;
-  std::string why;
-  MotionPlanningParams params = np.params;
-  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  ResolvedNarrowPassage np;
+  ASSERT_NO_FATAL_FAILURE(np.resolve());
+  const Eigen::VectorXd& start = np.start;
+  const std::vector<Eigen::VectorXd>& goals = np.goals;
+  const MotionPlanningParams& params = np.params;
   for (int run = 0; run < 5; ++run)
   {
     const auto setup = np.planner->makeSetup(start, goals, params);
@@ -394,12 +405,11 @@ TEST(RobotCollision, FirstInCollisionGivesInCollisionsVerdictsInOrder)
 
 TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
 {
-  const NarrowPassage np;
-  Eigen::VectorXd start;
-  std::vector<Eigen::VectorXd> goals;
-  std::string why;
-  MotionPlanningParams params = np.params;
-  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  ResolvedNarrowPassage np;
+  ASSERT_NO_FATAL_FAILURE(np.resolve());
+  const Eigen::VectorXd& start = np.start;
+  const std::vector<Eigen::VectorXd>& goals = np.goals;
+  const MotionPlanningParams& params = np.params;
   const auto setup = np.planner->makeSetup(start, goals, params);
   const ompl::base::SpaceInformationPtr& si = setup->getSpaceInformation();
   si->setup();
@@ -459,12 +469,11 @@ TEST(CpuTimedPlanner, RunsThePlannerInOmplsBenchmarkAsIfItRanAlone)
 {
   // bench_planners hands OMPL's Benchmark this wrapper: the benchmark must see the wrapped
   // planner's name, parameters and planner data, and the clock must be read when solve() ends.
-  const NarrowPassage np;
-  Eigen::VectorXd start;
-  std::vector<Eigen::VectorXd> goals;
-  std::string why;
-  MotionPlanningParams params = np.params;
-  ASSERT_TRUE(resolveScene(np.scene, *np.planner, params, start, goals, &why)) << why;
+  ResolvedNarrowPassage np;
+  ASSERT_NO_FATAL_FAILURE(np.resolve());
+  const Eigen::VectorXd& start = np.start;
+  const std::vector<Eigen::VectorXd>& goals = np.goals;
+  const MotionPlanningParams& params = np.params;
   const auto setup = np.planner->makeSetup(start, goals, params);
   const ompl::base::PlannerPtr inner =
       ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
