@@ -259,6 +259,7 @@ struct ResolvedNarrowPassage : NarrowPassage
     std::string why;
     ASSERT_TRUE(resolveScene(scene, *planner, params, start, goals, &why)) << why;
   }
+  std::shared_ptr<ompl::geometric::SimpleSetup> makeSetup() const { return planner->makeSetup(start, goals, params); }
   Eigen::VectorXd start;
   std::vector<Eigen::VectorXd> goals;
 };
@@ -309,14 +310,11 @@ TEST(ArmRRTConnect, PathEndsExactlyAndEverySegmentIsAValidMotion)
 {
   ResolvedNarrowPassage np;
   ASSERT_NO_FATAL_FAILURE(np.resolve());
-  const Eigen::VectorXd& start = np.start;
-  const std::vector<Eigen::VectorXd>& goals = np.goals;
-  const MotionPlanningParams& params = np.params;
   for (int run = 0; run < 5; ++run)
   {
-    const auto setup = np.planner->makeSetup(start, goals, params);
+    const auto setup = np.makeSetup();
     const ompl::base::PlannerPtr planner =
-        ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
+        ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), np.params.planner_params);
     ASSERT_TRUE(std::dynamic_pointer_cast<ArmRRTConnect>(planner));
     EXPECT_DOUBLE_EQ(planner->as<ArmRRTConnect>()->getRange(), 0.3125);  // config/planners.yaml
     setup->setPlanner(planner);
@@ -407,10 +405,7 @@ TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
 {
   ResolvedNarrowPassage np;
   ASSERT_NO_FATAL_FAILURE(np.resolve());
-  const Eigen::VectorXd& start = np.start;
-  const std::vector<Eigen::VectorXd>& goals = np.goals;
-  const MotionPlanningParams& params = np.params;
-  const auto setup = np.planner->makeSetup(start, goals, params);
+  const auto setup = np.makeSetup();
   const ompl::base::SpaceInformationPtr& si = setup->getSpaceInformation();
   si->setup();
   const auto* checker = dynamic_cast<const BatchValidityChecker*>(si->getStateValidityChecker().get());
@@ -431,7 +426,7 @@ TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
     const std::size_t count = 1 + rng() % 9;
     std::size_t expected = count;
     for (std::size_t k = 0; k < count && expected == count; ++k)
-      if (!np.planner->isValid(qs[first + k], params))
+      if (!np.planner->isValid(qs[first + k], np.params))
         expected = k;
     invalid += expected < count ? 1 : 0;
     ASSERT_EQ(checker->firstInvalid(states.data() + first, count), expected) << "group at " << first;
@@ -444,7 +439,7 @@ TEST(ArmMotionPlanner, BatchedCheckerAndMotionValidatorGiveTheOneByOneVerdicts)
   int motions = 0, valid_motions = 0;
   for (std::size_t k = 0; k + 1 < states.size() && motions < 1500; ++k)
   {
-    if (!np.planner->isValid(qs[k], params))
+    if (!np.planner->isValid(qs[k], np.params))
       continue;
     ompl::base::State* to = states[k + 1];
     if (k % 2 == 0)  // a short motion: a few states between the ends
@@ -471,12 +466,9 @@ TEST(CpuTimedPlanner, RunsThePlannerInOmplsBenchmarkAsIfItRanAlone)
   // planner's name, parameters and planner data, and the clock must be read when solve() ends.
   ResolvedNarrowPassage np;
   ASSERT_NO_FATAL_FAILURE(np.resolve());
-  const Eigen::VectorXd& start = np.start;
-  const std::vector<Eigen::VectorXd>& goals = np.goals;
-  const MotionPlanningParams& params = np.params;
-  const auto setup = np.planner->makeSetup(start, goals, params);
+  const auto setup = np.makeSetup();
   const ompl::base::PlannerPtr inner =
-      ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), params.planner_params);
+      ArmMotionPlanner::allocatePlanner("RRTConnect", setup->getSpaceInformation(), np.params.planner_params);
   inner->setName("RRTConnect");
   const auto timed = std::make_shared<CpuTimedPlanner>(inner);
   EXPECT_EQ(timed->getName(), "RRTConnect");
