@@ -365,9 +365,11 @@ def delete_planner_runs(cursor, experiment_id, planner_name):
     """Deletes one planner's runs (and their progress samples) from one experiment; returns the
     sum of their solve + simplification times (s), the part of the experiment's totaltime
     they stood for as far as the database knows."""
-    cursor.execute("SELECT r.id, COALESCE(r.time, 0) + COALESCE(r.simplification_time, 0) FROM runs r "
-                   "JOIN plannerConfigs p ON p.id = r.plannerid WHERE r.experimentid=? AND p.name=?",
-                   (experiment_id, planner_name))
+    cursor.execute('PRAGMA table_info("runs")')
+    columns = {row[1] for row in cursor.fetchall()}
+    seconds = " + ".join(["0"] + ["COALESCE(r.%s, 0)" % c for c in ("time", "simplification_time") if c in columns])
+    cursor.execute("SELECT r.id, %s FROM runs r JOIN plannerConfigs p ON p.id = r.plannerid "
+                   "WHERE r.experimentid=? AND p.name=?" % seconds, (experiment_id, planner_name))
     rows = cursor.fetchall()
     for run_id, _ in rows:
         cursor.execute("DELETE FROM progress WHERE runid=?", (run_id,))
