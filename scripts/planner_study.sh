@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # usage: bash scripts/planner_study.sh [--robots ur5,lwr4,jaco] [--planners A,B,...] [--groups 10s,20s]
-#          [--runs 30] [--bin BENCH_PLANNERS] [--study-dir DIR] [--cpu N] [--nice LEVEL] [--status]
+#          [--runs 30] [--bin BENCH_PLANNERS] [--study-dir DIR] [--cpu N] [--nice LEVEL]
+#          [--chunk-timeout-s S] [--status]
 # The thesis appendix's planner study (issue 13, docs/benchmarks/arms.md "The study: what ran")
 # in resumable chunks: one chunk is one (robot, planner, group), group 10s = shelf_pick and
 # shelf_place at a 10 s limit, 20s = shelf_place_horizontal at 20 s, each --runs runs (default
@@ -11,13 +12,15 @@
 # Order: robots as given (default ur5, lwr4, jaco), per robot the planners as given (default
 # the 8 limit-bound ones: PRM,LazyPRM,RRTstar,PRMstar,LazyPRMstar,LBTRRT,SPARS,SPARStwo), per
 # planner 10s then 20s. --bin: the bench_planners to run (default DIR/bin/bench_planners, the
-# frozen copy; see its COMMIT); --cpu N pins it to core N (taskset), --nice LEVEL (default 5).
+# frozen copy; see its COMMIT); --cpu N pins it to core N (taskset), --nice LEVEL (default 5);
+# --chunk-timeout-s: a chunk still running after S s is stopped and counts as failed (default
+# 3 x its runs' time limits + 600 s: a planner that never returns must not stall the study).
 # DIR (default /work/study30) also gets chunks.tsv (one line per finished chunk: times, load
 # averages, CPU seconds) and load.log (/proc/loadavg once a minute while this runs).
 # --status lists every chunk as done / partial / todo and exits. Fold done chunks into
 # docs/benchmarks/ with scripts/merge_planner_study.py.
 set -euo pipefail
-usage() { sed -n '2,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,23p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 robots="ur5,lwr4,jaco"
 planners="PRM,LazyPRM,RRTstar,PRMstar,LazyPRMstar,LBTRRT,SPARS,SPARStwo"
 groups="10s,20s"
@@ -27,6 +30,7 @@ bin=""
 cpu=""
 nice_level=5
 status_only=0
+chunk_timeout_s=""
 while [ $# -gt 0 ]; do
   case "$1" in
     -h|--help) usage; exit 0 ;;
@@ -38,6 +42,7 @@ while [ $# -gt 0 ]; do
     --study-dir) study_dir="$2"; shift 2 ;;
     --cpu) cpu="$2"; shift 2 ;;
     --nice) nice_level="$2"; shift 2 ;;
+    --chunk-timeout-s) chunk_timeout_s="$2"; shift 2 ;;
     --status) status_only=1; shift ;;
     *) usage >&2; exit 2 ;;
   esac
@@ -59,6 +64,12 @@ group_rows() {
   case "$1" in
     10s) echo $((2 * runs)) ;;
     20s) echo "${runs}" ;;
+  esac
+}
+group_limit_s() {  # seconds of time limits in one chunk: scenes x runs x limit
+  case "$1" in
+    10s) echo $((2 * runs * 10)) ;;
+    20s) echo $((runs * 20)) ;;
   esac
 }
 for g in "${group_list[@]}"; do group_flags "${g}" > /dev/null; done
@@ -111,7 +122,9 @@ for robot in "${robot_list[@]}"; do
       start="$(date -u +%FT%TZ)"; start_s="$(date +%s)"; load_start="$(cut -d' ' -f1-3 /proc/loadavg)"
       echo "${start} start ${robot} ${planner} ${g} (load ${load_start})"
       # shellcheck disable=SC2046  # group_flags is several words on purpose
-      cmd=("${runner[@]}" "${bin}" --robot "${robot}" --planners "${planner}" $(group_flags "${g}")
+      budget_s="${chunk_timeout_s:-$(( 3 * $(group_limit_s "${g}") + 600 ))}"
+      # timeout signals its whole process group: bench_planners and its per-planner children
+      cmd=("${runner[@]}" timeout --kill-after=60 "${budget_s}" "${bin}" --robot "${robot}" --planners "${planner}" $(group_flags "${g}")
            --runs "${runs}" --end-to-end none --out "${d}")
       echo "${cmd[*]}" > "${d}/command.txt"
       # CPU seconds of the chunk without /usr/bin/time (not always installed): the subshell's
@@ -125,7 +138,7 @@ for robot in "${robot_list[@]}"; do
       read -r rc cpu_s < "${d}/exit_status"
       end="$(date -u +%FT%TZ)"; wall_s=$(( $(date +%s) - start_s )); load_end="$(cut -d' ' -f1-3 /proc/loadavg)"
       rows=0
-      [ -f "${d}/runs.csv" ] && rows=$(( $(wc -l < "${d}/runs.csv") - 1 ))
+      [ -s "${d}/runs.csv" ] && rows=$(( $(wc -l < "${d}/runs.csv") - 1 ))
       want="$(group_rows "${g}")"
       if [ "${rc}" != 0 ] || [ "${rows}" != "${want}" ]; then
         echo "${end} FAILED ${robot} ${planner} ${g}: exit ${rc}, ${rows} of ${want} rows (see ${d}/bench.log)"
