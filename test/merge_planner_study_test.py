@@ -20,10 +20,11 @@ import ompl_benchmark_db  # noqa: E402
 CONFIG = """\
 planners: [SBL, PRM]
 benchmarks:
-  - {scene: shelf_pick, limit_s: 10, title: "Benchmark 2: pick into the shelf"}
-  - {scene: shelf_place_horizontal, limit_s: 20, title: "Benchmark 3: place, gripper horizontal"}
+  - {scene: shelf_pick, limit_s: 10, title: "Benchmark 2: pick into the shelf", short: pick}
+  - {scene: shelf_place_horizontal, limit_s: 20, title: "Benchmark 3: place, gripper horizontal", short: horizontal}
 arms:
-  - {robot: ur5, heading: UR5}
+  - {robot: ur5, heading: UR5, short: U}
+fastest: {count: 1, min_runs: 2}
 paper:
   ur5:
     shelf_pick:
@@ -50,7 +51,8 @@ NEW_PRM_10S = [
 CRASHED_PRM_20S = ["shelf_place_horizontal,20,PRM,0,0,20,0,20", "shelf_place_horizontal,20,PRM,1,0,20,0,20"]
 
 MARKDOWN = ("# Arms\n\nintro text\n\n" + merge_planner_study.BEGIN_MARKER + "\n\nold tables\n\n"
-            + merge_planner_study.END_MARKER + "\n\n## Reading\n\nkept\n")
+            + merge_planner_study.END_MARKER + "\n\n## Reading\n\n" + merge_planner_study.FASTEST_BEGIN_MARKER
+            + "\n\nold fastest\n\n" + merge_planner_study.FASTEST_END_MARKER + "\n\nkept\n")
 
 
 def ompl_log(scene, limit, planner, runs, total_s):
@@ -143,8 +145,11 @@ class MergePlannerStudyTest(unittest.TestCase):
         with open(os.path.join(self.docs, "arms.md")) as f:
             markdown = f.read()
         self.assertTrue(markdown.startswith("# Arms\n\nintro text\n\n" + merge_planner_study.BEGIN_MARKER))
-        self.assertTrue(markdown.endswith(merge_planner_study.END_MARKER + "\n\n## Reading\n\nkept\n"))
+        self.assertTrue(markdown.endswith(merge_planner_study.FASTEST_END_MARKER + "\n\nkept\n"))
+        self.assertIn(merge_planner_study.END_MARKER + "\n\n## Reading\n\n" + merge_planner_study.FASTEST_BEGIN_MARKER,
+                      markdown)
         self.assertNotIn("old tables", markdown)
+        self.assertNotIn("old fastest", markdown)
         lines = markdown.split("\n")
         # PRM pick: 2 of 3 solved = 67 %; time mean 0.020, sd sqrt((0.01^2 + 0.01^2) / 1) =
         # 0.014; CPU median of 2, 4, 10000 ms = 4.0; length mean 5, sd sqrt(2) = 1.41.
@@ -155,6 +160,10 @@ class MergePlannerStudyTest(unittest.TestCase):
         self.assertIn("| PRM | 2 | 0 % (crashed in OMPL) | - | 20000.0 | - | - | - |", lines)
         # SBL horizontal: one run, sd 0
         self.assertIn("| SBL | 1 | 100 % | 0.020 (0.000) | 10.0 | 2.50 (0.00) | - | - |", lines)
+        # fastest (1 per benchmark, >= 2 runs all solved): pick: SBL (CPU median 4.0 ms; PRM
+        # missed a run); horizontal: nobody (SBL has 1 run, PRM crashed)
+        self.assertIn("| arm | pick | horizontal |", lines)
+        self.assertIn("| U | SBL 4.0 | - |", lines)
         self.assertIn("### UR5", lines)
         self.assertIn("#### Benchmark 2: pick into the shelf (`shelf_pick`, 10 s)", lines)
         self.assertIn("#### Benchmark 3: place, gripper horizontal (`shelf_place_horizontal`, 20 s)", lines)
