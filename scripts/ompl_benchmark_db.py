@@ -15,11 +15,14 @@ process); logs with the same experiment name and time limit become one experimen
 Arena shows all planners of a scene side by side. When one name has several time limits, the
 experiment names get the limit appended ("narrow_passage 3s").
 
-Usage: ompl_benchmark_db.py [-o benchmark.db] [--library-version 1.5.2] LOG [LOG ...]
-The database is replaced, not appended to.
+Usage: ompl_benchmark_db.py [-o benchmark.db] [--library-version 1.5.2] [--update] LOG [LOG ...]
+The database is replaced, not appended to; with --update an existing database keeps everything
+but the runs of the logs' planners in the logs' experiments, which the logs' runs replace (for
+a database whose other logs are gone, as scripts/merge_planner_study.py folds in new runs).
 """
 import argparse
 import os
+import shutil
 import sqlite3
 import sys
 import tempfile
@@ -263,12 +266,50 @@ def merged_setup(members):
     return head + PLANNER_SPECS + "\n" + "".join(specs)
 
 
+def insert_log_runs(cursor, experiment_id, log, planners):
+    """Inserts the runs (and progress samples) of `planners` (entries of log["planners"]) into
+    experiment `experiment_id`, adding plannerConfigs, enums and columns as needed."""
+    for enum_name, descriptions in log["enums"]:
+        for value, description in enumerate(descriptions):
+            cursor.execute("INSERT OR IGNORE INTO enums VALUES (?,?,?)", (enum_name, value, description))
+    for planner in planners:
+        cursor.execute("SELECT id FROM plannerConfigs WHERE name=? AND settings=?",
+                       (planner["name"], planner["settings"]))
+        row = cursor.fetchone()
+        if row is None:
+            cursor.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)",
+                           (planner["name"], planner["settings"]))
+            planner_id = cursor.lastrowid
+        else:
+            planner_id = row[0]
+        add_missing_columns(cursor, "runs", planner["properties"])
+        run_columns = ["experimentid", "plannerid"] + [name for name, _ in planner["properties"]]
+        insert_run = 'INSERT INTO runs (%s) VALUES (%s)' % (
+            ",".join('"%s"' % c for c in run_columns), ",".join("?" * len(run_columns)))
+        run_ids = []
+        for run in planner["runs"]:
+            cursor.execute(insert_run, [experiment_id, planner_id] + run)
+            run_ids.append(cursor.lastrowid)
+        if not planner["progress_properties"]:
+            continue
+        add_missing_columns(cursor, "progress", planner["progress_properties"])
+        progress_columns = ["runid"] + [name for name, _ in planner["progress_properties"]]
+        insert_progress = 'INSERT OR IGNORE INTO progress (%s) VALUES (%s)' % (
+            ",".join('"%s"' % c for c in progress_columns), ",".join("?" * len(progress_columns)))
+        for run_id, samples in zip(run_ids, planner["progress"]):
+            for sample in samples:
+                cursor.execute(insert_progress, [run_id] + sample)
+
+
 def write_database(logs, db_path, library_version=None):
     """Writes a fresh database (atomically replacing db_path); returns row counts."""
     directory = os.path.dirname(os.path.abspath(db_path))
     handle, tmp_path = tempfile.mkstemp(suffix=".db", dir=directory)
     os.close(handle)
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp_path, 0o666 & ~umask)  # as open() would create it (mkstemp's mode is 0600)
         connection = sqlite3.connect(tmp_path)
         cursor = connection.cursor()
         cursor.execute("PRAGMA FOREIGN_KEYS = ON")
@@ -291,41 +332,104 @@ def write_database(logs, db_path, library_version=None):
                            % (",".join('"%s"' % c for c in columns), ",".join("?" * len(columns))), values)
             experiment_id = cursor.lastrowid
             for log in members:
-                for enum_name, descriptions in log["enums"]:
-                    for value, description in enumerate(descriptions):
-                        cursor.execute("INSERT OR IGNORE INTO enums VALUES (?,?,?)", (enum_name, value, description))
-                for planner in log["planners"]:
-                    cursor.execute("SELECT id FROM plannerConfigs WHERE name=? AND settings=?",
-                                   (planner["name"], planner["settings"]))
-                    row = cursor.fetchone()
-                    if row is None:
-                        cursor.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?,?)",
-                                       (planner["name"], planner["settings"]))
-                        planner_id = cursor.lastrowid
-                    else:
-                        planner_id = row[0]
-                    add_missing_columns(cursor, "runs", planner["properties"])
-                    run_columns = ["experimentid", "plannerid"] + [name for name, _ in planner["properties"]]
-                    insert_run = 'INSERT INTO runs (%s) VALUES (%s)' % (
-                        ",".join('"%s"' % c for c in run_columns), ",".join("?" * len(run_columns)))
-                    run_ids = []
-                    for run in planner["runs"]:
-                        cursor.execute(insert_run, [experiment_id, planner_id] + run)
-                        run_ids.append(cursor.lastrowid)
-                    if not planner["progress_properties"]:
-                        continue
-                    add_missing_columns(cursor, "progress", planner["progress_properties"])
-                    progress_columns = ["runid"] + [name for name, _ in planner["progress_properties"]]
-                    insert_progress = 'INSERT OR IGNORE INTO progress (%s) VALUES (%s)' % (
-                        ",".join('"%s"' % c for c in progress_columns), ",".join("?" * len(progress_columns)))
-                    for run_id, samples in zip(run_ids, planner["progress"]):
-                        for sample in samples:
-                            cursor.execute(insert_progress, [run_id] + sample)
+                insert_log_runs(cursor, experiment_id, log, log["planners"])
         connection.commit()
-        counts = {}
-        for table in ("experiments", "plannerConfigs", "runs", "progress", "enums"):
-            cursor.execute('SELECT COUNT(*) FROM "%s"' % table)
-            counts[table] = cursor.fetchone()[0]
+        counts = table_counts(cursor)
+        connection.close()
+        os.replace(tmp_path, db_path)
+        return counts
+    except BaseException:
+        if os.path.exists(tmp_path):
+            os.remove(tmp_path)
+        raise
+
+
+def table_counts(cursor):
+    counts = {}
+    for table in ("experiments", "plannerConfigs", "runs", "progress", "enums"):
+        cursor.execute('SELECT COUNT(*) FROM "%s"' % table)
+        counts[table] = cursor.fetchone()[0]
+    return counts
+
+
+def find_experiment(cursor, name, timelimit):
+    """Id of the experiment of (name, timelimit): named `name`, or "name <limit>s" when the
+    database holds that name with several limits (experiment_groups); None when absent."""
+    cursor.execute("SELECT id FROM experiments WHERE (name=? OR name=?) AND ABS(timelimit - ?) < 1e-9",
+                   (name, "%s %gs" % (name, timelimit), timelimit))
+    row = cursor.fetchone()
+    return None if row is None else row[0]
+
+
+def delete_planner_runs(cursor, experiment_id, planner_name):
+    """Deletes one planner's runs (and their progress samples) from one experiment; returns the
+    sum of their solve + simplification times (s), the part of the experiment's totaltime
+    they stood for as far as the database knows."""
+    cursor.execute('PRAGMA table_info("runs")')
+    columns = {row[1] for row in cursor.fetchall()}
+    seconds = " + ".join(["0"] + ["COALESCE(r.%s, 0)" % c for c in ("time", "simplification_time") if c in columns])
+    cursor.execute("SELECT r.id, %s FROM runs r JOIN plannerConfigs p ON p.id = r.plannerid "
+                   "WHERE r.experimentid=? AND p.name=?" % seconds, (experiment_id, planner_name))
+    rows = cursor.fetchall()
+    for run_id, _ in rows:
+        cursor.execute("DELETE FROM progress WHERE runid=?", (run_id,))
+        cursor.execute("DELETE FROM runs WHERE id=?", (run_id,))
+    return sum(t for _, t in rows)
+
+
+def update_database(db_path, logs, removals=(), library_version=None):
+    """Replaces, in an existing database, every planner of every log: that planner's runs in the
+    log's experiment (same name and time limit) are deleted and the log's inserted; the
+    experiment's runcount becomes the largest run count of its planners and its totaltime loses
+    the deleted runs' times and gains the log's totaltime. A log whose experiment is missing adds
+    it. `removals` (experiment name, time limit, planner name as OMPL logs it, "geometric_PRM")
+    only deletes (a planner that crashed and left no log). Other planners, experiments and the
+    experiments' setup text stay as they are. Atomic: db_path is replaced by an updated copy.
+    Returns row counts like write_database. For a database whose logs are all at hand,
+    write_database is the simpler way."""
+    directory = os.path.dirname(os.path.abspath(db_path))
+    handle, tmp_path = tempfile.mkstemp(suffix=".db", dir=directory)
+    os.close(handle)
+    try:
+        shutil.copy2(db_path, tmp_path)  # with its mode (mkstemp's is 0600)
+        connection = sqlite3.connect(tmp_path)
+        cursor = connection.cursor()
+        touched = set()
+        for name, timelimit, planner_name in removals:
+            experiment_id = find_experiment(cursor, name, timelimit)
+            if experiment_id is None:
+                continue
+            removed_s = delete_planner_runs(cursor, experiment_id, planner_name)
+            cursor.execute("UPDATE experiments SET totaltime = totaltime - ? WHERE id=?", (removed_s, experiment_id))
+            touched.add(experiment_id)
+        for log in logs:
+            experiment_id = find_experiment(cursor, log["name"], log["timelimit"])
+            if experiment_id is None:
+                cursor.execute("SELECT name FROM experiments")
+                taken = any(n == log["name"] or n.startswith(log["name"] + " ") for (n,) in cursor.fetchall())
+                label = "%s %gs" % (log["name"], log["timelimit"]) if taken else log["name"]
+                version = log["version"] or library_version or "0.0.0"
+                cursor.execute("INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, version, "
+                               "hostname, cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+                               (label, 0.0, log["timelimit"], log["memorylimit"], log["runcount"],
+                                "%s %s" % (log["library"], version), log["hostname"], log["cpuinfo"], log["date"],
+                                log["seed"], log["setup"]))
+                experiment_id = cursor.lastrowid
+            removed_s = 0.0
+            for planner in log["planners"]:
+                removed_s += delete_planner_runs(cursor, experiment_id, planner["name"])
+            insert_log_runs(cursor, experiment_id, log, log["planners"])
+            cursor.execute("UPDATE experiments SET totaltime = totaltime - ? + ? WHERE id=?",
+                           (removed_s, log["totaltime"], experiment_id))
+            touched.add(experiment_id)
+        for experiment_id in touched:
+            cursor.execute("SELECT MAX(n) FROM (SELECT COUNT(*) AS n FROM runs WHERE experimentid=? GROUP BY plannerid)",
+                           (experiment_id,))
+            cursor.execute("UPDATE experiments SET runcount=? WHERE id=?", (cursor.fetchone()[0] or 0, experiment_id))
+        # planner configurations no run refers to any more (a replaced planner's old settings)
+        cursor.execute("DELETE FROM plannerConfigs WHERE id NOT IN (SELECT DISTINCT plannerid FROM runs)")
+        connection.commit()
+        counts = table_counts(cursor)
         connection.close()
         os.replace(tmp_path, db_path)
         return counts
@@ -339,6 +443,9 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("logs", nargs="+", help="OMPL benchmark .log files")
     parser.add_argument("-o", "--output", default="benchmark.db", help="database to write (replaced)")
+    parser.add_argument("--update", action="store_true",
+                        help="update the existing OUTPUT in place: the logs' planners replace their runs "
+                             "in the logs' experiments, everything else stays (update_database)")
     parser.add_argument("--library-version", default=None,
                         help="version recorded when a log has none (Debian's OMPL 1.5 writes 'OMPL version ')")
     args = parser.parse_args(argv)
@@ -347,7 +454,10 @@ def main(argv):
     except (OSError, LogFormatError) as e:
         print("ompl_benchmark_db: %s" % e, file=sys.stderr)
         return 1
-    counts = write_database(logs, args.output, args.library_version)
+    if args.update:
+        counts = update_database(args.output, logs, library_version=args.library_version)
+    else:
+        counts = write_database(logs, args.output, args.library_version)
     print("%s: %d experiments, %d planner configs, %d runs, %d progress samples"
           % (args.output, counts["experiments"], counts["plannerConfigs"], counts["runs"], counts["progress"]))
     return 0

@@ -91,6 +91,34 @@ class OmplBenchmarkDbTest(unittest.TestCase):
         counts = self.convert("narrow_passage_0.5s_RRTConnect.log")
         self.assertEqual((counts["experiments"], counts["runs"]), (1, 2))
 
+    def test_update_replaces_one_planner_in_place(self):
+        self.convert("narrow_passage_0.5s_RRTConnect.log", "narrow_passage_0.5s_RRTstar.log")
+        rrtstar_sql = ("SELECT r.time, r.solved, g.time, g.best_cost FROM runs r JOIN plannerConfigs p "
+                       "ON p.id = r.plannerid LEFT JOIN progress g ON g.runid = r.id "
+                       "WHERE p.name='geometric_RRTstar' ORDER BY r.id, g.time")
+        rrtstar = query(self.db, rrtstar_sql)
+        self.assertTrue(rrtstar)
+        # The 1 s log's RRTConnect runs, renamed into the 0.5 s experiment, replace the old ones.
+        log = ompl_benchmark_db.parse_log(fixture("narrow_passage_1s_RRTConnect.log"))
+        log["timelimit"] = 0.5
+        new_times = [run[[n for n, _ in log["planners"][0]["properties"]].index("time")]
+                     for run in log["planners"][0]["runs"]]
+        ompl_benchmark_db.update_database(self.db, [log])
+        self.assertEqual(query(self.db, "SELECT name, timelimit, runcount FROM experiments"),
+                         [("narrow_passage", 0.5, 2)])
+        rrtconnect = query(self.db, "SELECT r.time FROM runs r JOIN plannerConfigs p ON p.id = r.plannerid "
+                                    "WHERE p.name='geometric_RRTConnect' ORDER BY r.id")
+        self.assertEqual([t for (t,) in rrtconnect], new_times)
+        self.assertEqual(query(self.db, rrtstar_sql), rrtstar)  # the other planner untouched
+        self.assertEqual(query(self.db, "SELECT COUNT(*) FROM progress WHERE runid NOT IN (SELECT id FROM runs)"),
+                         [(0,)])
+        # A log of a time limit the database lacks adds its experiment (named apart by its limit),
+        # through the command line.
+        self.assertEqual(ompl_benchmark_db.main(["--update", "-o", self.db, fixture("narrow_passage_1s_RRTConnect.log")]),
+                         0)
+        self.assertEqual(sorted(query(self.db, "SELECT name, timelimit, runcount FROM experiments")),
+                         [("narrow_passage", 0.5, 2), ("narrow_passage 1s", 1.0, 2)])
+
     def test_missing_version_gets_the_fallback(self):
         self.convert("narrow_passage_0.5s_RRTConnect.log", version=None)
         self.assertEqual(query(self.db, "SELECT version FROM experiments"), [("OMPL 0.0.0",)])
