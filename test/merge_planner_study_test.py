@@ -218,6 +218,11 @@ class MergePlannerStudyTest(unittest.TestCase):
             f.write(text.replace("| 67 % |", "| 68 % |"))
         self.assertEqual(merge_planner_study.main(["--docs-dir", self.docs, "--check"]), 1)
 
+    def test_the_repositorys_tables_are_generated_from_its_runs(self):
+        # docs/benchmarks/arms.md's study tables are what the runs.csv files beside them say
+        # (no hand edit, no merge that forgot the tables).
+        self.assertEqual(merge_planner_study.main(["--tables-only", "--check"]), 0)
+
     def test_plot_script_is_bench_planners(self):
         script = merge_planner_study.plot_script()
         self.assertIn('fig.savefig("%s/%s_%ss.png" % (out, scene, limit))', script)
