@@ -21,6 +21,7 @@ but the runs of the logs' planners in the logs' experiments, which the logs' run
 a database whose other logs are gone, as scripts/merge_planner_study.py folds in new runs).
 """
 import argparse
+import contextlib
 import os
 import shutil
 import sqlite3
@@ -301,17 +302,35 @@ def insert_log_runs(cursor, experiment_id, log, planners):
                 cursor.execute(insert_progress, [run_id] + sample)
 
 
-def write_database(logs, db_path, library_version=None):
-    """Writes a fresh database (atomically replacing db_path); returns row counts."""
+@contextlib.contextmanager
+def replaced_atomically(db_path, copy_existing):
+    """A cursor on a temporary database beside db_path (a copy of it with copy_existing, else
+    empty); when the block ends normally the changes are committed and the file replaces
+    db_path, otherwise it is removed and db_path stays as it was."""
     directory = os.path.dirname(os.path.abspath(db_path))
     handle, tmp_path = tempfile.mkstemp(suffix=".db", dir=directory)
     os.close(handle)
     try:
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp_path, 0o666 & ~umask)  # as open() would create it (mkstemp's mode is 0600)
+        if copy_existing:
+            shutil.copy2(db_path, tmp_path)  # with its mode (mkstemp's is 0600)
+        else:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp_path, 0o666 & ~umask)  # as open() would create it
         connection = sqlite3.connect(tmp_path)
-        cursor = connection.cursor()
+        yield connection.cursor()
+        connection.commit()
+        connection.close()
+        os.replace(tmp_path, db_path)
+    except BaseException:
+        if os.path.exists(tmp_path):
+            os.remove(tmp_path)
+        raise
+
+
+def write_database(logs, db_path, library_version=None):
+    """Writes a fresh database (atomically replacing db_path); returns row counts."""
+    with replaced_atomically(db_path, copy_existing=False) as cursor:
         cursor.execute("PRAGMA FOREIGN_KEYS = ON")
         cursor.executescript(SCHEMA)
         for label, members in experiment_groups(logs):
@@ -333,15 +352,8 @@ def write_database(logs, db_path, library_version=None):
             experiment_id = cursor.lastrowid
             for log in members:
                 insert_log_runs(cursor, experiment_id, log, log["planners"])
-        connection.commit()
         counts = table_counts(cursor)
-        connection.close()
-        os.replace(tmp_path, db_path)
-        return counts
-    except BaseException:
-        if os.path.exists(tmp_path):
-            os.remove(tmp_path)
-        raise
+    return counts
 
 
 def table_counts(cursor):
@@ -387,13 +399,7 @@ def update_database(db_path, logs, removals=(), library_version=None):
     experiments' setup text stay as they are. Atomic: db_path is replaced by an updated copy.
     Returns row counts like write_database. For a database whose logs are all at hand,
     write_database is the simpler way."""
-    directory = os.path.dirname(os.path.abspath(db_path))
-    handle, tmp_path = tempfile.mkstemp(suffix=".db", dir=directory)
-    os.close(handle)
-    try:
-        shutil.copy2(db_path, tmp_path)  # with its mode (mkstemp's is 0600)
-        connection = sqlite3.connect(tmp_path)
-        cursor = connection.cursor()
+    with replaced_atomically(db_path, copy_existing=True) as cursor:
         touched = set()
         for name, timelimit, planner_name in removals:
             experiment_id = find_experiment(cursor, name, timelimit)
@@ -428,15 +434,8 @@ def update_database(db_path, logs, removals=(), library_version=None):
             cursor.execute("UPDATE experiments SET runcount=? WHERE id=?", (cursor.fetchone()[0] or 0, experiment_id))
         # planner configurations no run refers to any more (a replaced planner's old settings)
         cursor.execute("DELETE FROM plannerConfigs WHERE id NOT IN (SELECT DISTINCT plannerid FROM runs)")
-        connection.commit()
         counts = table_counts(cursor)
-        connection.close()
-        os.replace(tmp_path, db_path)
-        return counts
-    except BaseException:
-        if os.path.exists(tmp_path):
-            os.remove(tmp_path)
-        raise
+    return counts
 
 
 def main(argv):
