@@ -16,6 +16,7 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
+#include <chrono>
 #include <sstream>
 
 namespace fast_grasp
@@ -114,6 +115,8 @@ void GraspPlannerNodelet::onInit()
   private_nh_.param("max_input_points", max_input_points_, 200000);
   private_nh_.param("max_marker_candidates", max_marker_candidates_, 100);
   private_nh_.param("all_objects", all_objects_, false);
+  private_nh_.param("table_plane_wait_s", table_plane_wait_s_, 0.5);
+  private_nh_.param("require_table_plane", require_table_plane_, true);
   private_nh_.param("normal_k_neighbours", normal_params_.k_neighbours, normal_params_.k_neighbours);
   try
   {
@@ -139,7 +142,9 @@ void GraspPlannerNodelet::onInit()
   grasps_pub_ = private_nh_.advertise<fast_grasp::GraspArray>("grasps", 5);
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
   next_view_pub_ = private_nh_.advertise<geometry_msgs::PoseStamped>("next_view", 2, /*latch=*/true);
-  scene_sub_ = nh_.subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
+  // The multi-threaded queue: a cloud callback waiting for the first plane (tablePlaneFor) must
+  // not hold up the scene that carries it.
+  scene_sub_ = getMTNodeHandle().subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
   if (all_objects_)
     objects_sub_ = nh_.subscribe<ObjectsCloud>("objects_in", 2, &GraspPlannerNodelet::objectsCallback, this);
   else
@@ -158,20 +163,38 @@ void GraspPlannerNodelet::sceneCallback(const fast_grasp::SegmentedScene::ConstP
   Eigen::Vector4f plane(scene->table_plane[0], scene->table_plane[1], scene->table_plane[2], scene->table_plane[3]);
   if (!plane.allFinite() || plane.head<3>().norm() < 0.5f)
     return;
-  std::lock_guard<std::mutex> lock(scene_mutex_);
-  table_planes_[scene->header.stamp.toNSec() / 1000] = plane;
-  while (table_planes_.size() > kKeptPlanes)
-    table_planes_.erase(table_planes_.begin());
+  {
+    std::lock_guard<std::mutex> lock(scene_mutex_);
+    table_planes_[scene->header.stamp.toNSec() / 1000] = plane;
+    while (table_planes_.size() > kKeptPlanes)
+      table_planes_.erase(table_planes_.begin());
+  }
+  plane_arrived_.notify_all();
 }
 
 bool GraspPlannerNodelet::tablePlaneFor(std::uint64_t stamp_us, Eigen::Vector4f& plane)
 {
-  std::lock_guard<std::mutex> lock(scene_mutex_);
+  std::unique_lock<std::mutex> lock(scene_mutex_);
+  if (table_planes_.empty() && scene_sub_.getNumPublishers() > 0 && table_plane_wait_s_ > 0.0)
+    plane_arrived_.wait_for(lock, std::chrono::duration<double>(table_plane_wait_s_),
+                            [this] { return !table_planes_.empty(); });
   if (table_planes_.empty())
     return false;
   const auto own = table_planes_.find(stamp_us);
   plane = own != table_planes_.end() ? own->second : table_planes_.rbegin()->second;
   return true;
+}
+
+std::string GraspPlannerNodelet::fillTablePlane(std::uint64_t stamp_us, ObjectView& view)
+{
+  view.has_table_plane = tablePlaneFor(stamp_us, view.table_plane);
+  if (view.has_table_plane || !require_table_plane_)
+    return "";
+  std::ostringstream why;
+  why << "NoTablePlane: no table plane on ~segmented_scene (" << scene_sub_.getNumPublishers()
+      << " publishers) within table_plane_wait_s " << table_plane_wait_s_
+      << " s; without it grasps may go through the table (require_table_plane: false plans anyway)";
+  return why.str();
 }
 
 std::string GraspPlannerNodelet::lookUpSensorOrigins(const pcl::PCLHeader& header, const Eigen::Vector4f& sensor_origin,
@@ -245,7 +268,9 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     const std::string origin_problem = lookUpSensorOrigins(cloud->header, cloud->sensor_origin_, view.sensor_origins);
     if (!origin_problem.empty())
       return publishFailure("MissingTransform: " + origin_problem);
-    view.has_table_plane = tablePlaneFor(cloud->header.stamp, view.table_plane);  // PCL stamps are µs
+    const std::string plane_problem = fillTablePlane(cloud->header.stamp, view);  // PCL stamps are µs
+    if (!plane_problem.empty())
+      return publishFailure(plane_problem);
 
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
@@ -292,7 +317,9 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
     const std::string origin_problem = lookUpSensorOrigins(objects->header, objects->sensor_origin_, shared.sensor_origins);
     if (!origin_problem.empty())
       return publishFailure("MissingTransform: " + origin_problem);
-    shared.has_table_plane = tablePlaneFor(objects->header.stamp, shared.table_plane);
+    const std::string plane_problem = fillTablePlane(objects->header.stamp, shared);
+    if (!plane_problem.empty())
+      return publishFailure(plane_problem);
 
     // One cloud per label, normals per object (a touching neighbour's points would tilt them).
     std::map<std::uint32_t, CloudXYZ::Ptr> by_label;

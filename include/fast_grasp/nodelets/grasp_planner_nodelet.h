@@ -19,6 +19,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <condition_variable>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -54,8 +55,13 @@ private:
   /// ~all_objects: normals per label, every object planned (table_grasps.h), the grasps of all
   /// objects published in pick order, each with its object_id.
   void objectsCallback(const boost::shared_ptr<const ObjectsCloud>& objects);
-  /// This frame's table plane (by stamp), else the latest; false when none came yet.
+  /// This frame's table plane (by stamp), else the latest; when none came yet but a table
+  /// segmentation publishes, waits up to ~table_plane_wait_s for the first one (the scene
+  /// callback runs on the multi-threaded queue, so it can arrive meanwhile). False: no plane.
   bool tablePlaneFor(std::uint64_t stamp_us, Eigen::Vector4f& plane);
+  /// The cloud's table plane into `view`; "" when planning may go on, else why not
+  /// (~require_table_plane and no plane: grasps could go through the table).
+  std::string fillTablePlane(std::uint64_t stamp_us, ObjectView& view);
   void sceneCallback(const fast_grasp::SegmentedScene::ConstPtr& scene);
   /// Sensor origins in the cloud's frame: tf look-ups of ~sensor_frames, else the
   /// cloud's own sensor_origin_. Empty string on success, else why not.
@@ -94,11 +100,18 @@ private:
   double tf_timeout_s_ = 0.5;
   int max_input_points_ = 200000;
   int max_marker_candidates_ = 100;
+  double table_plane_wait_s_ = 0.5;
+  bool require_table_plane_ = true;
 
   std::mutex scene_mutex_;
+  std::condition_variable plane_arrived_;  // a first table plane came (with scene_mutex_)
   /// Table planes of the last few frames by stamp (µs, as PCL headers keep them): a cloud is
   /// planned with its own frame's plane, never with none because that frame's plane was still
   /// in flight; the latest plane stands in only when its own never came (separate processes).
+  /// The scenes come on the nodelet's multi-threaded queue: at start-up the planner's
+  /// connection to ~cloud_in can be made before the one to ~segmented_scene (or, across
+  /// processes, the cloud overtake its scene), and the first cloud was planned with no table:
+  /// the hammer bag got a grasp through the table (CI, sessions 5 and 18).
   std::map<std::uint64_t, Eigen::Vector4f> table_planes_;
   static constexpr std::size_t kKeptPlanes = 8;
 };
