@@ -328,6 +328,59 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
   EXPECT_FALSE(FusedGraspPlanner({}, p).plan(upright, gripper).ok());
 }
 
+TEST(FusedGrasp, TallObjectsAreHeldAboveTheirCentreOfMass)
+{
+  // A bottle: a 16 cm body of radius 3.3 cm under a 9 cm neck of radius 1.3 cm (25 cm tall),
+  // standing, seen from the side and 40 cm above the table. One side direction (the view's).
+  // Tall handling off: the one side grasp closes at the seen points' centroid, in the body's
+  // lower half. On (tall from 15 cm, sides also at 0.75 and 0.9 of the height): two more side
+  // grasps close on the neck at 18.75 and 22.5 cm, about 2.6 cm wide (the neck seen across
+  // the closing direction, square to the view); the centroid one, below 0.6 of the height, ranks last.
+  const double height = 0.25;
+  const Eigen::Vector3d camera(-0.5, 0.0, 0.4);
+  auto cloud = synthetic::renderView({ synthetic::makeCylinder({ 0.0, 0.0, 0.08 }, { 0.0, 0.0, 1.0 }, 0.033, 0.16),
+                                       synthetic::makeCylinder({ 0.0, 0.0, 0.205 }, { 0.0, 0.0, 1.0 }, 0.013, 0.09) },
+                                     { camera, 0.003, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  ASSERT_NEAR(objectExtent(view).height_m, height, 0.004);
+  FusedParams p = noCandidatesOfItsOwn();
+  p.side_directions = 1;
+  const GraspResult off = FusedGraspPlanner({}, p).plan(view, gripper);
+  ASSERT_TRUE(off.ok()) << off.message;
+  ASSERT_EQ(off.grasps.size(), 1u);
+  EXPECT_LT(off.grasps.front().position().z(), 0.6 * height);
+
+  p.tall_object_min_height_m = 0.15;
+  p.side_high_fracs = { 0.75, 0.9 };
+  p.tall_side_min_height_frac = 0.6;
+  const GraspResult on = FusedGraspPlanner({}, p).plan(view, gripper);
+  ASSERT_TRUE(on.ok()) << on.message;
+  ASSERT_EQ(on.grasps.size(), 3u);
+  std::set<int> neck_heights_mm;
+  for (std::size_t i = 0; i < 2; ++i)
+  {
+    const GraspCandidate& g = on.grasps[i];
+    EXPECT_NEAR(std::abs(g.approach().x()), 1.0, 1e-3);  // horizontal, from the camera's side
+    EXPECT_NEAR(g.width_m, 0.025, 0.005);  // the neck's 2.6 cm as seen (grazing points sparse), not the body's 6.6
+    EXPECT_NEAR(g.position().y(), 0.0, 0.003);
+    neck_heights_mm.insert(static_cast<int>(std::lround(g.position().z() * 1000.0)));
+  }
+  EXPECT_EQ(neck_heights_mm, (std::set<int>{ 188, 225 }));  // 0.75 and 0.9 of the 25 cm (+-1 mm)
+  EXPECT_NEAR(on.grasps.back().position().z(), off.grasps.front().position().z(), 1e-6) << "the pendulum grasp ranks last";
+  EXPECT_NE(on.message.find("centre of mass"), std::string::npos) << on.message;
+
+  // A 12 cm can is not tall at 15 cm: nothing changes.
+  auto can = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.06 }, { 0.0, 0.0, 1.0 }, 0.033, 0.12),
+                                   { camera, 0.003, 0.0, 1 });
+  ObjectView can_view = synthetic::makeObjectView(can, camera);
+  can_view.has_table_plane = true;
+  can_view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  EXPECT_EQ(FusedGraspPlanner({}, p).plan(can_view, gripper).grasps.size(), 1u);
+}
+
 TEST(FusedGrasp, GraspsPlannedOnAThinnedViewAreCheckedAgainstTheFullViewsUnseenPart)
 {
   // The box seen densely (1 mm: ~7000 points). Its unseen back lies behind it along the camera

@@ -53,7 +53,28 @@ struct Generated
   /// end-on grasp's far finger passes the hidden side, where the unseen part's shadows (10 cm
   /// along the camera rays) always reach; its width already assumes that hidden side.
   bool without_unseen = false;
+  /// Ranked after every candidate that is not (FusedParams::tall_object_min_height_m).
+  bool demoted = false;
 };
+
+/// FusedParams::tall_object_min_height_m: the object counts as tall.
+bool isTall(const ObjectExtent& extent, const FusedParams& p)
+{
+  return p.tall_object_min_height_m > 0.0 && extent.height_m >= static_cast<float>(p.tall_object_min_height_m);
+}
+
+/// A side grasp (approach within 30 deg of horizontal) on a tall object closing below
+/// tall_side_min_height_frac of its height: an inverted pendulum (FusedParams).
+bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& extent, const FusedParams& p)
+{
+  if (!isTall(extent, p))
+    return false;
+  const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>();
+  if (std::abs(approach.dot(extent.up)) > 0.5f)
+    return false;
+  const float height = extent.up.dot(grasp.pose.translation().cast<float>()) + extent.table_offset;
+  return height < static_cast<float>(p.tall_side_min_height_frac) * extent.height_m;
+}
 
 /// Top-down grasps: one per closing direction at the centroid and at +-a quarter of the object's
 /// length along its major horizontal axis (a hammer's handle, a clamp's jaw). The width is what
@@ -122,7 +143,9 @@ void topDownCandidates(const ObjectView& view, const ObjectExtent& extent, const
   }
 }
 
-/// Side grasps at the centroid's height, approaching horizontally from the camera's side.
+/// Side grasps at the centroid's height, approaching horizontally from the camera's side; on a
+/// tall object also at FusedParams::side_high_fracs of its height, as wide as the seen points
+/// in a finger-wide band there.
 void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
                     const FusedParams& p, std::vector<Generated>& out)
 {
@@ -136,30 +159,57 @@ void sideCandidates(const ObjectView& view, const ObjectExtent& extent, const Gr
   const float centroid_height = extent.centroid_height_m();
   const float lowest_centre = 0.5f * static_cast<float>(gripper.palmWidth()) +
                               static_cast<float>(p.gripper_fit.table_clearance_m) + 0.002f;
-  const float centre_height = std::max(centroid_height, lowest_centre);
-  for (std::size_t i = 0; i < p.side_directions; ++i)
+  // (closing-line height, half-height of the band whose points set the width; 0 = all points)
+  std::vector<std::pair<float, float>> heights{ { std::max(centroid_height, lowest_centre), 0.0f } };
+  if (isTall(extent, p))
   {
-    const float t = p.side_directions == 1 ? 0.0f
-                                           : -1.0f + 2.0f * static_cast<float>(i) / static_cast<float>(p.side_directions - 1);
-    const Eigen::Vector3f approach = Eigen::AngleAxisf(t * static_cast<float>(p.side_spread_rad), extent.up) * look;
-    const Eigen::Vector3f closing = extent.up.cross(approach).normalized();
-    const auto [lo, hi] = extentAlong(*view.cloud, closing);
-    const double width = static_cast<double>(hi - lo);
-    if (width > gripper.max_opening_m - 0.005)
+    const float half_band = 0.5f * static_cast<float>(gripper.finger_width_m) + 0.005f;
+    for (const double frac : p.side_high_fracs)
+      heights.emplace_back(std::max(static_cast<float>(frac) * extent.height_m, lowest_centre), half_band);
+  }
+  std::vector<Eigen::Vector3f> band;
+  band.reserve(view.cloud->size());
+  for (const auto& [centre_height, half_band] : heights)
+  {
+    band.clear();
+    for (const auto& q : view.cloud->points)
+    {
+      const Eigen::Vector3f v = q.getVector3fMap();
+      if (v.allFinite() && (half_band == 0.0f || std::abs(extent.up.dot(v) + extent.table_offset - centre_height) <= half_band))
+        band.push_back(v);
+    }
+    if (band.size() < 5)
       continue;
-    const auto [front, back] = extentAlong(*view.cloud, approach);
-    // The far side is unseen: the middle of what was seen along the approach (the top, where
-    // visible, spans the depth), but no deeper than a round object as deep as it is wide.
-    const float depth_centre = std::min(0.5f * (front + back), front + 0.5f * static_cast<float>(width));
-    Eigen::Vector3f centre = extent.centroid;
-    centre += (centre_height - centroid_height) * extent.up;
-    centre += (depth_centre - approach.dot(centre)) * approach;
-    centre += (0.5f * (lo + hi) - closing.dot(centre)) * closing;
-    Generated g;
-    g.source = "side";
-    g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
-    g.grasp.width_m = std::max(width, gripper.min_opening_m);
-    out.push_back(g);
+    for (std::size_t i = 0; i < p.side_directions; ++i)
+    {
+      const float t = p.side_directions == 1 ? 0.0f
+                                             : -1.0f + 2.0f * static_cast<float>(i) / static_cast<float>(p.side_directions - 1);
+      const Eigen::Vector3f approach = Eigen::AngleAxisf(t * static_cast<float>(p.side_spread_rad), extent.up) * look;
+      const Eigen::Vector3f closing = extent.up.cross(approach).normalized();
+      float lo = std::numeric_limits<float>::max(), hi = -lo, front = lo, back = -lo;
+      for (const Eigen::Vector3f& v : band)
+      {
+        lo = std::min(lo, closing.dot(v));
+        hi = std::max(hi, closing.dot(v));
+        front = std::min(front, approach.dot(v));
+        back = std::max(back, approach.dot(v));
+      }
+      const double width = static_cast<double>(hi - lo);
+      if (width > gripper.max_opening_m - 0.005)
+        continue;
+      // The far side is unseen: the middle of what was seen along the approach (the top, where
+      // visible, spans the depth), but no deeper than a round object as deep as it is wide.
+      const float depth_centre = std::min(0.5f * (front + back), front + 0.5f * static_cast<float>(width));
+      Eigen::Vector3f centre = extent.centroid;
+      centre += (centre_height - centroid_height) * extent.up;
+      centre += (depth_centre - approach.dot(centre)) * approach;
+      centre += (0.5f * (lo + hi) - closing.dot(centre)) * closing;
+      Generated g;
+      g.source = "side";
+      g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
+      g.grasp.width_m = std::max(width, gripper.min_opening_m);
+      out.push_back(g);
+    }
   }
 }
 
@@ -237,6 +287,15 @@ std::string FusedParams::validate() const
     why << "max_grasps must be >= 1; ";
   if (!(side_spread_rad >= 0.0 && side_spread_rad <= M_PI))
     why << "side_spread_rad must be in [0, pi]; ";
+  if (!(tall_object_min_height_m >= 0.0 && tall_object_min_height_m <= 1.0))
+    why << "tall_object_min_height_m must be in [0, 1] m; ";
+  if (side_high_fracs.size() > 8)
+    why << "side_high_fracs takes at most 8 heights; ";
+  for (const double frac : side_high_fracs)
+    if (!(frac > 0.0 && frac < 1.0))
+      why << "side_high_fracs must lie in (0, 1); ";
+  if (!(tall_side_min_height_frac >= 0.0 && tall_side_min_height_frac <= 1.0))
+    why << "tall_side_min_height_frac must be in [0, 1]; ";
   if (!(deepen_pooled_max_m >= 0.0 && deepen_pooled_max_m <= 0.2))
     why << "deepen_pooled_max_m must be in [0, 0.2] m; ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
@@ -363,9 +422,22 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     g.grasp.score = params_.model.probability(g.grasp.features);
     g.grasp.algorithm = "fused/" + g.source;
   }
-  std::stable_sort(pool.begin(), pool.end(),
-                   [](const Generated& a, const Generated& b) { return a.grasp.score > b.grasp.score; });
-  const double best = pool.empty() ? 0.0 : pool.front().grasp.score;
+  // Side grasps closing below a tall object's centre of mass rank after every other candidate
+  // (kept: on a tall object with nothing else they are still a grasp).
+  std::size_t demoted = 0;
+  for (auto& g : pool)
+  {
+    g.demoted = closesBelowCentreOfMass(g.grasp, extent, params_);
+    demoted += g.demoted ? 1 : 0;
+  }
+  if (demoted > 0)
+    summary << "below a tall object's centre of mass, ranked last: " << demoted << "; ";
+  std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
+    return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
+  });
+  double best = 0.0;
+  for (const auto& g : pool)
+    best = std::max(best, g.grasp.score);
   // Everything above saw the thinned view, and the pooled planners built their unseen parts
   // from it: coarser silhouettes, sparser shadows. A hand that cleared those can still enter
   // the object's hidden back (the cracker box bag at max_pooled_points 500: a concavity grasp's
@@ -396,8 +468,10 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   std::size_t dropped_at_full_resolution = 0;
   for (auto& g : pool)
   {
-    if (result.grasps.size() >= params_.max_grasps || g.grasp.score < params_.min_success_probability)
+    if (result.grasps.size() >= params_.max_grasps)
       break;
+    if (g.grasp.score < params_.min_success_probability)
+      continue;  // (not break: demoted candidates follow, in their own score order)
     if (full_check)
     {
       const GripperFit fitted = (g.without_unseen ? *full_seen_only_check : *full_check).fit(g.grasp.pose, g.grasp.width_m);

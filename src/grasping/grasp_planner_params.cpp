@@ -316,6 +316,9 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   reader.readCount("top_down_directions", p.top_down_directions, 0);
   reader.readCount("side_directions", p.side_directions, 0);
   reader.readNonNegative("side_spread_rad", p.side_spread_rad);
+  reader.readNonNegative("tall_object_min_height_m", p.tall_object_min_height_m);
+  reader.read("side_high_fracs", p.side_high_fracs);
+  reader.readNonNegative("tall_side_min_height_frac", p.tall_side_min_height_frac);
   reader.read("end_grasps", p.end_grasps);
   reader.readNonNegative("deepen_pooled_max_m", p.deepen_pooled_max_m);
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);

@@ -34,6 +34,17 @@ struct FusedParams
   /// within +-side_spread_rad of the view direction (0 = none).
   std::size_t side_directions = 5;
   double side_spread_rad = 0.8;
+  /// Tall objects (at least tall_object_min_height_m high; 0 = none): side candidates also
+  /// close at these fractions of the height, each as wide as the seen points in a finger-wide
+  /// band there (a bottle's shoulder or neck), and pooled side grasps (approach within 30 deg
+  /// of horizontal) closing below tall_side_min_height_frac of the height rank after every
+  /// other candidate. Beyond the thesis: a horizontal closing line below the centre of mass
+  /// holds the object as an inverted pendulum. In physics (clutter training pool, session 18)
+  /// tall objects' side grasps held 33-58 % closing at 0.2-0.5 of the height, 73 % at 0.6,
+  /// 85 % at 0.7 and every time at 0.9 and above.
+  double tall_object_min_height_m = 0.0;
+  std::vector<double> side_high_fracs;
+  double tall_side_min_height_frac = 0.6;
   /// End-on candidates: approach horizontally along the footprint's major axis from each end,
   /// the palm palm_clearance_m before the end, closing across what the fingers surround at the
   /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer
