@@ -372,6 +372,16 @@ TEST(FusedGrasp, TallObjectsAreHeldAboveTheirCentreOfMass)
   EXPECT_NEAR(on.grasps.back().position().z(), off.grasps.front().position().z(), 1e-6) << "the pendulum grasp ranks last";
   EXPECT_NE(on.message.find("centre of mass"), std::string::npos) << on.message;
 
+  // The YAML keys (config/grasp_planners.yaml fused section), and bad values refused.
+  const FusedParams read =
+      fusedParamsFromYaml(YAML::Load("{tall_object_min_height_m: 0.15, side_high_fracs: [0.75, 0.9], tall_side_min_height_frac: 0.6}"));
+  EXPECT_EQ(read.tall_object_min_height_m, 0.15);
+  EXPECT_EQ(read.side_high_fracs, (std::vector<double>{ 0.75, 0.9 }));
+  EXPECT_EQ(read.tall_side_min_height_frac, 0.6);
+  for (const char* bad : { "{side_high_fracs: [1.2]}", "{side_high_fracs: [0.0]}", "{tall_side_min_height_frac: 1.5}",
+                           "{tall_object_min_height_m: 3.0}", "{tall_object_min_height_m: -0.1}" })
+    EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
+
   // A 12 cm can is not tall at 15 cm: nothing changes.
   auto can = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.06 }, { 0.0, 0.0, 1.0 }, 0.033, 0.12),
                                    { camera, 0.003, 0.0, 1 });
