@@ -53,7 +53,8 @@ struct Generated
   /// end-on grasp's far finger passes the hidden side, where the unseen part's shadows (10 cm
   /// along the camera rays) always reach; its width already assumes that hidden side.
   bool without_unseen = false;
-  /// Ranked after every candidate that is not (FusedParams::tall_object_min_height_m).
+  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass): ranked after
+  /// every candidate that is not.
   bool demoted = false;
 };
 
