@@ -126,8 +126,11 @@ class PerceptionBadInputTest(unittest.TestCase):
             object_received = self.addresses['/normal_estimation/received_address']
             self.assertGreaterEqual(len(sent), 3)
             # Same manager: the downstream nodelet gets the very pointer the upstream one published.
-            self.assertEqual(sent[-3:], received[-3:])
-            self.assertEqual(object_sent[-3:], object_received[-3:])
+            # (Each address is its own message: under load the last ones may still be in flight
+            # or come in another order, so every received pointer must be one that was sent.)
+            self.assertTrue(received and set(received[-3:]) <= set(sent), (sent, received))
+            self.assertTrue(object_received and set(object_received[-3:]) <= set(object_sent),
+                            (object_sent, object_received))
             self.assertTrue(all(a != 0 for a in sent))
 
     def test_01_empty_cloud(self):
