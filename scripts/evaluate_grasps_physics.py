@@ -59,7 +59,9 @@ PLANNERS = ["principal_axis", "cshape", "boundary", "concavity", "fused"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "rank", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
           "object_rise_m", "unstable", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
-          "binormal_x", "binormal_y", "binormal_z", "width_m", "score"]
+          "binormal_x", "binormal_y", "binormal_z", "width_m", "score",
+          # the settled object's pose in base_link (mesh frame -> world), for offline geometry
+          "object_x", "object_y", "object_z", "object_qw", "object_qx", "object_qy", "object_qz"]
 
 
 def parse_args(argv):
@@ -212,6 +214,8 @@ def evaluate_scene(job):
         for view in range(args.views):
             base = {"split": obj.split, "object": obj.name, "class": obj.cls, "pose": pose_index, "view": view,
                     "gripper": gripper["name"], "friction": args.friction}
+            base.update(zip(("object_x", "object_y", "object_z"), map(float, rest_pos)))
+            base.update(zip(("object_qw", "object_qx", "object_qy", "object_qz"), map(float, rest_quat)))
             centre = np.array([rest_pos[0], rest_pos[1], 0.0])
             # the rest-posed mesh tells whether any gripper could close on it (fits the opening)
             centre[2] = 0.5 * (world[:, 2].max() + max(world[:, 2].min(), 0.0))

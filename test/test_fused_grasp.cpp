@@ -227,6 +227,26 @@ private:
 };
 }  // namespace
 
+namespace
+{
+/// A pooled planner that finds no grasp but reports an unseen part (as the thesis planners do).
+class UnseenPartOnlyPlanner : public GraspPlanner
+{
+public:
+  explicit UnseenPartOnlyPlanner(CloudXYZ unseen) : unseen_(std::move(unseen)) {}
+  GraspResult plan(const ObjectView& /*view*/, const GripperModel& /*gripper*/) const override
+  {
+    GraspResult result = GraspResult::fail(GraspFailure::NoStableGrasp, "none");
+    result.unseen = unseen_;
+    return result;
+  }
+  const char* name() const override { return "boundary"; }
+
+private:
+  CloudXYZ unseen_;
+};
+}  // namespace
+
 TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
 {
   // A can (radius 2.5 cm, 15 cm long) lying along y on the table: its equator is 2.5 cm up,
@@ -278,6 +298,69 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
   EXPECT_LE(palm, 0.05 + 0.005 + 0.005 + 1e-3);
 }
 
+TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
+{
+  // A can (radius 3.4 cm, 10 cm long) lying along y, its axis 3.4 cm up. Two planners propose
+  // one grasp each, closing across it; the model (no weights) scores them alike, so the pool's
+  // order decides. The first comes 35 deg from vertical from the camera's side with its
+  // fingertips 8 mm short of the axis (they touch above the widest section: in physics it
+  // squeezes out); the second from above with its fingertips at 3 cm, 4 mm past the axis.
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
+  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0.0, 1.0, 0.0 }, 0.034, 0.10),
+                                     { camera, 0.003, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const double tilt = 35.0 * M_PI / 180.0;
+  const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
+  GraspCandidate oblique;
+  oblique.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.034) - (0.008 + 0.02) * approach, approach,
+                               Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt)));
+  oblique.width_m = 0.068;
+  GraspCandidate from_above;
+  from_above.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  from_above.width_m = 0.068;
+
+  const auto plan = [&](bool lying_cylinder) {
+    FusedParams p = noCandidatesOfItsOwn();
+    p.max_pooled_points = 0;
+    p.lying_cylinder.enabled = lying_cylinder;
+    p.lying_cylinder.max_median_residual_frac = 0.18;
+    p.lying_cylinder.max_median_normal_angle_rad = 0.22;
+    std::vector<std::unique_ptr<GraspPlanner>> planners;
+    planners.push_back(std::make_unique<FixedGraspPlanner>(oblique));
+    planners.push_back(std::make_unique<FixedGraspPlanner>(from_above));
+    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+  };
+  const GraspResult off = plan(false);
+  ASSERT_TRUE(off.ok()) << off.message;
+  ASSERT_EQ(off.grasps.size(), 2u);
+  EXPECT_NEAR(off.grasps.front().approach().z(), -std::cos(tilt), 1e-9) << "pool order without the fit";
+  const GraspResult on = plan(true);
+  ASSERT_TRUE(on.ok()) << on.message;
+  ASSERT_EQ(on.grasps.size(), 2u) << "the short grasp is kept, as a last resort";
+  EXPECT_NEAR(on.grasps.front().approach().z(), -1.0, 1e-9);
+  EXPECT_NEAR(on.grasps.back().approach().z(), -std::cos(tilt), 1e-9);
+  EXPECT_NE(on.message.find("lying round object (radius 34 mm), fingertips short of its axis, ranked last: 1"),
+            std::string::npos)
+      << on.message;
+
+  // The YAML keys (config/grasp_planners.yaml fused/lying_cylinder), and bad values refused.
+  const FusedParams read = fusedParamsFromYaml(YAML::Load(
+      "{lying_cylinder: {enabled: true, min_length_to_height: 1.5, max_median_residual_frac: 0.1, "
+      "max_median_normal_angle_rad: 0.2, min_points: 40, min_fingertip_reach_m: -0.002}}"));
+  EXPECT_TRUE(read.lying_cylinder.enabled);
+  EXPECT_EQ(read.lying_cylinder.min_length_to_height, 1.5);
+  EXPECT_EQ(read.lying_cylinder.max_median_residual_frac, 0.1);
+  EXPECT_EQ(read.lying_cylinder.max_median_normal_angle_rad, 0.2);
+  EXPECT_EQ(read.lying_cylinder.min_points, 40u);
+  EXPECT_EQ(read.lying_cylinder.min_fingertip_reach_m, -0.002);
+  for (const char* bad : { "{lying_cylinder: {min_fingertip_reach_m: 0.5}}", "{lying_cylinder: {max_median_residual_frac: 0}}",
+                           "{lying_cylinder: {no_such_key: 1}}", "{lying_cylinder: {min_points: 1}}" })
+    EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
+}
+
 TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
 {
   // A can (radius 3.3 cm, 12 cm long: longer than the 85 mm opening) lying along y, seen from
@@ -318,6 +401,22 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
     ends.insert(g.approach().y() > 0.0 ? 1 : -1);
   }
   EXPECT_EQ(ends.size(), 2u);
+  // A pooled planner's unseen part fills the space beyond the +y end (what the can would hide
+  // there seen from that side: a bottle's neck). The grasp from that end would put its palm
+  // into it: dropped; the one from the -y end stays.
+  CloudXYZ hidden_neck;
+  for (double y = 0.062; y < 0.11; y += 0.004)
+    for (double x = -0.014; x <= 0.014; x += 0.004)
+      for (double z = 0.02; z <= 0.047; z += 0.004)
+        hidden_neck.push_back(pcl::PointXYZ(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+  std::vector<std::unique_ptr<GraspPlanner>> with_unseen;
+  with_unseen.push_back(std::make_unique<UnseenPartOnlyPlanner>(hidden_neck));
+  const GraspResult beside_hidden = FusedGraspPlanner(std::move(with_unseen), p).plan(view, gripper);
+  ASSERT_TRUE(beside_hidden.ok()) << beside_hidden.message;
+  ASSERT_EQ(beside_hidden.grasps.size(), 1u);
+  EXPECT_GT(beside_hidden.grasps.front().approach().y(), 0.99) << "from the -y end, away from the hidden part";
+  EXPECT_NE(beside_hidden.message.find("end-on with the palm in the unseen part: 1"), std::string::npos)
+      << beside_hidden.message;
   // Standing up, 12 cm tall: higher than the opening, so nothing says how far its hidden back
   // reaches (an upright cracker box's is 6 cm behind its front, not 12): no end grasps.
   auto standing = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.5 * length }, { 0.0, 0.0, 1.0 }, radius, length),

@@ -53,10 +53,31 @@ struct Generated
   /// end-on grasp's far finger passes the hidden side, where the unseen part's shadows (10 cm
   /// along the camera rays) always reach; its width already assumes that hidden side.
   bool without_unseen = false;
-  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass): ranked after
-  /// every candidate that is not.
+  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass), or one whose
+  /// fingertips fall short of a lying round object's axis: ranked after every candidate that
+  /// is neither.
   bool demoted = false;
 };
+
+/// An end-on grasp (Generated::without_unseen) is checked without the unseen part, for its far
+/// finger's sake; its palm still must not enter it. Beyond the seen end of an object whose end
+/// faces away from the camera the unseen part is what the object itself hides there (a lying
+/// bottle's neck behind its body, seen from its base): in physics the hand met it before
+/// closing (training half, session 20: four of the bottles' end grasps).
+bool palmEntersUnseen(const Eigen::Isometry3d& pose, const GripperModel& gripper, const GripperFitParams& fit,
+                      const CloudXYZ& unseen)
+{
+  const GripperBox palm =
+      openGripperBoxes(gripper, fit.approach_opening_m > 0.0 ? fit.approach_opening_m : gripper.max_opening_m)[2];
+  const Eigen::Isometry3f to_grasp = pose.inverse().cast<float>();
+  for (const auto& p : unseen.points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (q.allFinite() && palm.contains(to_grasp * q))
+      return true;
+  }
+  return false;
+}
 
 /// FusedParams::tall_object_min_height_m: the object counts as tall.
 bool isTall(const ObjectExtent& extent, const FusedParams& p)
@@ -301,7 +322,7 @@ std::string FusedParams::validate() const
     why << "deepen_pooled_max_m must be in [0, 0.2] m; ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
     why << "min_success_probability must be in [0, 1]; ";
-  why << gripper_fit.validate() << model.validate();
+  why << gripper_fit.validate() << lying_cylinder.validate() << model.validate();
   return why.str();
 }
 
@@ -385,17 +406,24 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     std::optional<GripperVolumeCheck> seen_only_check;
     if (std::any_of(generated.begin(), generated.end(), [](const Generated& g) { return g.without_unseen; }))
       seen_only_check.emplace(hand_check(params_.gripper_fit, false));
-    std::size_t kept = 0;
+    std::size_t kept = 0, palm_in_unseen = 0;
     for (auto& g : generated)
     {
       const GripperFit fitted = (g.without_unseen ? *seen_only_check : check).fitOrTilt(g.grasp.pose, g.grasp.width_m);
       if (!fitted.ok)
         continue;
+      if (g.without_unseen && palmEntersUnseen(fitted.pose, gripper, params_.gripper_fit, unseen))
+      {
+        ++palm_in_unseen;
+        continue;
+      }
       g.grasp.pose = fitted.pose;
       pool.push_back(std::move(g));
       ++kept;
     }
     summary << "top_down + side + end: " << kept << " of " << generated.size() << " fit; ";
+    if (palm_in_unseen > 0)
+      summary << "end-on with the palm in the unseen part: " << palm_in_unseen << "; ";
   }
   result.candidates_evaluated += generated.size();
 
@@ -423,16 +451,30 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     g.grasp.score = params_.model.probability(g.grasp.features);
     g.grasp.algorithm = "fused/" + g.source;
   }
-  // Side grasps closing below a tall object's centre of mass rank after every other candidate
-  // (kept: on a tall object with nothing else they are still a grasp).
-  std::size_t demoted = 0;
+  // Side grasps closing below a tall object's centre of mass, and grasps whose fingertips stop
+  // short of a lying round object's axis, rank after every other candidate (kept: with nothing
+  // else they are still a grasp).
+  const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
+  std::size_t below_centre_of_mass = 0, short_of_axis = 0;
   for (auto& g : pool)
   {
-    g.demoted = closesBelowCentreOfMass(g.grasp, extent, params_);
-    demoted += g.demoted ? 1 : 0;
+    if (closesBelowCentreOfMass(g.grasp, extent, params_))
+    {
+      g.demoted = true;
+      ++below_centre_of_mass;
+    }
+    else if (const auto reach = fingertipReachPastAxis(g.grasp, gripper, lying);
+             reach && *reach < static_cast<float>(params_.lying_cylinder.min_fingertip_reach_m))
+    {
+      g.demoted = true;
+      ++short_of_axis;
+    }
   }
-  if (demoted > 0)
-    summary << "below a tall object's centre of mass, ranked last: " << demoted << "; ";
+  if (below_centre_of_mass > 0)
+    summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";
+  if (lying.found)
+    summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
+            << " mm), fingertips short of its axis, ranked last: " << short_of_axis << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
   });

@@ -335,6 +335,16 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     p.pooled_max_grasps[name] = static_cast<std::size_t>(count);
   }
   p.gripper_fit = gripperFitFromYaml(reader, "fused");
+  {
+    SectionReader lying(reader.child("lying_cylinder"), "fused/lying_cylinder");
+    lying.read("enabled", p.lying_cylinder.enabled);
+    lying.readNonNegative("min_length_to_height", p.lying_cylinder.min_length_to_height);
+    lying.readNonNegative("max_median_residual_frac", p.lying_cylinder.max_median_residual_frac);
+    lying.readNonNegative("max_median_normal_angle_rad", p.lying_cylinder.max_median_normal_angle_rad);
+    lying.readCount("min_points", p.lying_cylinder.min_points, 3);
+    lying.read("min_fingertip_reach_m", p.lying_cylinder.min_fingertip_reach_m);
+    lying.rejectUnknownKeys();
+  }
   SectionReader model(reader.child("model"), "fused/model");
   model.read("bias", p.model.bias);
   std::map<std::string, double> weights;

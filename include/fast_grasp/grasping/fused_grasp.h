@@ -13,6 +13,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/lying_cylinder.h"
 #include "fast_grasp/grasping/planner_input.h"
 
 #include <map>
@@ -45,13 +46,18 @@ struct FusedParams
   double tall_object_min_height_m = 0.0;
   std::vector<double> side_high_fracs;
   double tall_side_min_height_frac = 0.6;
+  /// A round object lying on the table (lying_cylinder.h): pooled grasps closing across its
+  /// axis whose fingertips fall short of it rank after every other candidate (kept as a last
+  /// resort, like the pendulum side grasps above).
+  LyingCylinderParams lying_cylinder;
   /// End-on candidates: approach horizontally along the footprint's major axis from each end,
   /// the palm palm_clearance_m before the end, closing across what the fingers surround at the
   /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer
   /// than the opening can only be closed on from above, where a finger_depth_m-long finger
   /// ends near its equator and it slips out on the lift; from its end the fingers close
   /// across its diameter. The hand is checked without the unseen part (its far finger passes
-  /// the hidden side): the width assumes the object as wide as high there.
+  /// the hidden side; its palm still keeps out of it, palmEntersUnseen): the width assumes the
+  /// object as wide as high there.
   bool end_grasps = true;
   /// The pooled planners, the generated candidates and the features see at most this many
   /// points (every k-th point of a larger view; 0 = all). The planners' cost grows with the

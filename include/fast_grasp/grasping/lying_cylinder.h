@@ -1,0 +1,74 @@
+// A round object lying on the table (a can, a bottle, a rolling pin) found in one partial view,
+// and whether a grasp's fingers reach past its axis.
+//
+// Beyond the thesis. In physics (training half, session 20) grasps closing across a lying
+// cylinder held 91 % of the time when the fingertips passed its axis and 49 % when they
+// stopped short of it: the flat finger pads then touch above the widest section, at their
+// very tips, and the squeeze shoots the object out sideways or it slips on the lift. The
+// thesis planners (concavity above all) put the closing line where they saw the contacts, the
+// top and the camera-facing side, and an oblique hand stops short there.
+//
+// The fit uses what a single view of a lying round object does give: its axis is horizontal,
+// along the footprint's major axis, and lies one radius above the table, where the radius is
+// half the object's height. The one unknown left is the axis's position across the footprint:
+// where the circle fits the seen points best, found by a 1-D scan. A general cylinder RANSAC
+// (PCL's SACMODEL_CYLINDER) has five unknowns for the same half-circle of points, with normals
+// that are noisiest exactly where the half-circle ends; the table fixes three of them. ROS-free.
+#pragma once
+
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/grasping/grasp_features.h"
+
+#include <Eigen/Core>
+
+#include <optional>
+#include <string>
+
+namespace fast_grasp
+{
+struct LyingCylinderParams
+{
+  /// Look for a lying round object at all (false: never found, nothing is demoted).
+  bool enabled = false;
+  /// The footprint must be at least this many times longer than the object is high (a can
+  /// on its side; a standing or flat object is not lying round).
+  double min_length_to_height = 1.2;
+  /// Round, not a box: the seen points' median distance from the fitted circle, as a fraction
+  /// of the radius (a lying box's top corners lie up to 0.4 radius off its circle; a bottle's
+  /// neck is a minority of its points), and the median angle between their normals and the
+  /// direction away from the axis (a box's faces: up to 45 deg).
+  double max_median_residual_frac = 0.08;
+  double max_median_normal_angle_rad = 0.3;
+  /// Fewest finite points the fit needs.
+  std::size_t min_points = 30;
+  /// A grasp closing across the axis (fingertipReachPastAxis) whose fingertips pass the axis
+  /// by less than this (negative: may stop that far short of it), measured along the approach
+  /// in the cross-section, falls short of the axis.
+  double min_fingertip_reach_m = 0.0;
+
+  std::string validate() const;
+};
+
+struct LyingCylinder
+{
+  bool found = false;
+  Eigen::Vector3f axis_point = Eigen::Vector3f::Zero();  // on the axis, at the seen points' middle along it
+  Eigen::Vector3f axis = Eigen::Vector3f::UnitX();       // unit, horizontal
+  float radius_m = 0.0f;
+  float median_residual_m = 0.0f;        // median |distance from the axis - radius| of the seen points
+  float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
+  std::string why;               // when not found: which test failed
+};
+
+/// Fits a lying round object to `view` (extent: objectExtent(view)). Found only with a table
+/// plane (the radius is half the height above it).
+LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& extent, const LyingCylinderParams& params);
+
+/// How far the fingertips of `grasp` pass the axis of `cylinder`, measured along the grasp's
+/// approach projected into the cylinder's cross-section (negative: they stop short). Empty
+/// when the grasp does not close across the axis (its closing direction less than 60 deg from
+/// the axis, or its approach less than 45 deg from it: an end-on grasp) or nothing was found.
+std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const GripperModel& gripper,
+                                            const LyingCylinder& cylinder);
+
+}  // namespace fast_grasp

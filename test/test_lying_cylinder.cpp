@@ -1,0 +1,150 @@
+// The lying round object fit and the fingertips' reach past its axis, on analytic shapes whose
+// axis, radius and reach follow from their construction.
+#include "fast_grasp/grasping/lying_cylinder.h"
+
+#include "fast_grasp/grasping/grasp_features.h"
+#include "synthetic_views.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace fast_grasp
+{
+namespace
+{
+const Eigen::Vector3d kCamera(-0.40, 0.12, 0.42);
+
+ObjectView viewOf(const synthetic::Shape& shape, double noise_m = 0.0)
+{
+  auto cloud = synthetic::renderView(shape, { kCamera, 0.003, noise_m, 7 });
+  ObjectView view = synthetic::makeObjectView(cloud, kCamera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
+LyingCylinderParams enabled()
+{
+  LyingCylinderParams p;
+  p.enabled = true;
+  p.max_median_residual_frac = 0.18;
+  p.max_median_normal_angle_rad = 0.22;
+  return p;
+}
+
+LyingCylinder fit(const ObjectView& view, const LyingCylinderParams& params = enabled())
+{
+  return fitLyingCylinder(view, objectExtent(view), params);
+}
+
+/// Distance of `point` from the line through `on` along unit `axis`.
+double distanceFromLine(const Eigen::Vector3d& point, const Eigen::Vector3d& on, const Eigen::Vector3d& axis)
+{
+  const Eigen::Vector3d d = point - on;
+  return (d - d.dot(axis) * axis).norm();
+}
+}  // namespace
+
+TEST(LyingCylinder, ACanOnItsSideIsFoundWithItsAxisAndRadius)
+{
+  // A 3.4 cm radius, 10 cm long can lying on the table, its axis 30 deg from x, 3.4 cm up.
+  const Eigen::Vector3d axis(std::cos(M_PI / 6), std::sin(M_PI / 6), 0.0);
+  const Eigen::Vector3d centre(0.02, -0.01, 0.034);
+  for (const double noise : { 0.0, 0.001 })
+  {
+    const LyingCylinder can = fit(viewOf(synthetic::makeCylinder(centre, axis, 0.034, 0.10), noise));
+    ASSERT_TRUE(can.found) << can.why << " (noise " << noise << ")";
+    EXPECT_NEAR(can.radius_m, 0.034, 0.0015);
+    EXPECT_GT(std::abs(can.axis.cast<double>().dot(axis)), std::cos(3.0 * M_PI / 180.0));
+    EXPECT_NEAR(can.axis.z(), 0.0, 1e-5);  // horizontal
+    EXPECT_LT(distanceFromLine(can.axis_point.cast<double>(), centre, axis), 0.003);
+    EXPECT_NEAR(can.axis_point.cast<double>().dot(axis), centre.dot(axis), 0.01);  // the middle of what was seen
+  }
+}
+
+TEST(LyingCylinder, BoxesStandingObjectsAndShortRollsAreNotLyingRoundObjects)
+{
+  // A box as long as the can, its cross-section square (its height is the can's diameter).
+  const Eigen::Vector3d centre(0.0, 0.0, 0.034);
+  const LyingCylinder box = fit(viewOf(synthetic::makeBox(centre, { 0.10, 0.068, 0.068 })));
+  EXPECT_FALSE(box.found);
+  EXPECT_GT(box.median_normal_angle_rad, 0.3) << "its faces' normals alone tell it from the can";
+  // A flat box (a book): its top is far off any circle of half its height.
+  EXPECT_FALSE(fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.015 }, { 0.20, 0.14, 0.03 }))).found);
+  // A cereal box on its long side: 6 cm deep, 17 cm high, 21 cm long.
+  const LyingCylinder cereal = fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.085 }, { 0.21, 0.06, 0.17 })));
+  EXPECT_FALSE(cereal.found);
+  EXPECT_EQ(cereal.why, "footprint not as wide as it is high");
+  // The same can standing: its footprint is no longer than it is high.
+  const LyingCylinder standing = fit(viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.05 }, { 0, 0, 1 }, 0.034, 0.10)));
+  EXPECT_FALSE(standing.found);
+  EXPECT_EQ(standing.why, "footprint not long enough for its height");
+  // Off by default, and nothing without a table plane.
+  const ObjectView can_view = viewOf(synthetic::makeCylinder(centre, { 1, 0, 0 }, 0.034, 0.10));
+  EXPECT_FALSE(fit(can_view, LyingCylinderParams{}).found);
+  ObjectView no_table = can_view;
+  no_table.has_table_plane = false;
+  EXPECT_FALSE(fit(no_table).found);
+}
+
+TEST(LyingCylinder, FingertipReachIsMeasuredAlongTheApproachInTheCrossSection)
+{
+  // The can along y, its axis 3.4 cm up. The gripper's fingers are 4 cm deep: the tips are
+  // 2 cm beyond the grasp centre along the approach.
+  const ObjectView view = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  const LyingCylinder can = fit(view);
+  ASSERT_TRUE(can.found) << can.why;
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  ASSERT_NEAR(gripper.finger_depth_m, 0.04, 1e-9);
+  // Top-down, closing across the axis, centre 5 cm up: the tips at 3 cm, 4 mm past the axis
+  // (the fitted axis height is half the seen height: within the render's 1.5 mm).
+  GraspCandidate top;
+  top.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.01, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  ASSERT_TRUE(fingertipReachPastAxis(top, gripper, can).has_value());
+  EXPECT_NEAR(*fingertipReachPastAxis(top, gripper, can), 0.004, 0.0015);
+  // Oblique: 35 deg from vertical about the axis, the tips stopping 8 mm short of it; and
+  // the approach's component along the axis does not count (tilted 20 deg along y as well).
+  const Eigen::Vector3d axis_point = can.axis_point.cast<double>();
+  for (const double along_rad : { 0.0, 20.0 * M_PI / 180.0 })
+  {
+    const double tilt = 35.0 * M_PI / 180.0;
+    const Eigen::Vector3d in_section(std::sin(tilt), 0.0, -std::cos(tilt));
+    const Eigen::Vector3d approach = (std::cos(along_rad) * in_section + std::sin(along_rad) * Eigen::Vector3d::UnitY()).normalized();
+    const Eigen::Vector3d closing = Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt));
+    // tip = centre + 2 cm approach; put the tip's cross-section position 8 mm before the axis
+    const Eigen::Vector3d tip = axis_point - 0.008 * in_section + 0.02 * std::sin(along_rad) * Eigen::Vector3d::UnitY();
+    GraspCandidate oblique;
+    oblique.pose = makeGraspPose(tip - 0.02 * approach, approach, closing);
+    const auto reach = fingertipReachPastAxis(oblique, gripper, can);
+    ASSERT_TRUE(reach.has_value());
+    EXPECT_NEAR(*reach, -0.008, 5e-4) << "tilted along the axis by " << along_rad;  // the fitted axis: within 3 deg
+  }
+  // End-on (approach along the axis) and closing along the axis: not across it.
+  GraspCandidate end_on;
+  end_on.pose = makeGraspPose(Eigen::Vector3d(0.0, -0.06, 0.034), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 0, 0));
+  EXPECT_FALSE(fingertipReachPastAxis(end_on, gripper, can).has_value());
+  GraspCandidate along;
+  along.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, 1, 0));
+  EXPECT_FALSE(fingertipReachPastAxis(along, gripper, can).has_value());
+  EXPECT_FALSE(fingertipReachPastAxis(top, gripper, LyingCylinder{}).has_value());
+}
+
+TEST(LyingCylinder, ParametersAreValidated)
+{
+  EXPECT_EQ(enabled().validate(), "");
+  LyingCylinderParams p = enabled();
+  p.max_median_residual_frac = 0.0;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.max_median_normal_angle_rad = 4.0;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.min_fingertip_reach_m = 0.5;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.min_points = 2;
+  EXPECT_NE(p.validate(), "");
+}
+
+}  // namespace fast_grasp
