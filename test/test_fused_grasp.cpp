@@ -348,10 +348,11 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
 
   // The YAML keys (config/grasp_planners.yaml fused/lying_cylinder), and bad values refused.
   const FusedParams read = fusedParamsFromYaml(YAML::Load(
-      "{lying_cylinder: {enabled: true, min_length_to_height: 1.5, max_median_residual_frac: 0.1, "
+      "{lying_cylinder: {enabled: true, min_length_to_height: 1.5, max_normal_spread_ratio: 0.3, max_median_residual_frac: 0.1, "
       "max_median_normal_angle_rad: 0.2, min_points: 40, min_fingertip_reach_m: -0.002}}"));
   EXPECT_TRUE(read.lying_cylinder.enabled);
   EXPECT_EQ(read.lying_cylinder.min_length_to_height, 1.5);
+  EXPECT_EQ(read.lying_cylinder.max_normal_spread_ratio, 0.3);
   EXPECT_EQ(read.lying_cylinder.max_median_residual_frac, 0.1);
   EXPECT_EQ(read.lying_cylinder.max_median_normal_angle_rad, 0.2);
   EXPECT_EQ(read.lying_cylinder.min_points, 40u);

@@ -63,23 +63,34 @@ TEST(LyingCylinder, ACanOnItsSideIsFoundWithItsAxisAndRadius)
   }
 }
 
+TEST(LyingCylinder, ACanHalfHiddenInAPileIsFoundFromItsNormals)
+{
+  // Only 5 cm of a 3.4 cm radius can along x are seen (the rest hidden in a pile): its seen
+  // footprint is shorter than it is wide, so the footprint's major axis runs across it. The
+  // side's normals still give its axis.
+  const Eigen::Vector3d centre(0.0, 0.0, 0.034);
+  const LyingCylinder can = fit(viewOf(synthetic::makeCylinder(centre, { 1, 0, 0 }, 0.034, 0.05)));
+  ASSERT_TRUE(can.found) << can.why << " axis " << can.axis.transpose() << " res " << can.median_residual_m << " ang " << can.median_normal_angle_rad << " spread " << can.normal_spread_ratio << " pt " << can.axis_point.transpose();
+  EXPECT_GT(std::abs(can.axis.x()), std::cos(3.0 * M_PI / 180.0));
+  EXPECT_LT(can.normal_spread_ratio, 0.05f);
+  EXPECT_LT(distanceFromLine(can.axis_point.cast<double>(), centre, Eigen::Vector3d::UnitX()), 0.003);
+}
+
 TEST(LyingCylinder, BoxesStandingObjectsAndShortRollsAreNotLyingRoundObjects)
 {
   // A box as long as the can, its cross-section square (its height is the can's diameter).
   const Eigen::Vector3d centre(0.0, 0.0, 0.034);
   const LyingCylinder box = fit(viewOf(synthetic::makeBox(centre, { 0.10, 0.068, 0.068 })));
-  EXPECT_FALSE(box.found);
-  EXPECT_GT(box.median_normal_angle_rad, 0.3) << "its faces' normals alone tell it from the can";
+  EXPECT_FALSE(box.found) << "its normals are not radial";
   // A flat box (a book): its top is far off any circle of half its height.
   EXPECT_FALSE(fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.015 }, { 0.20, 0.14, 0.03 }))).found);
   // A cereal box on its long side: 6 cm deep, 17 cm high, 21 cm long.
   const LyingCylinder cereal = fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.085 }, { 0.21, 0.06, 0.17 })));
   EXPECT_FALSE(cereal.found);
-  EXPECT_EQ(cereal.why, "footprint not as wide as it is high");
   // The same can standing: its footprint is no longer than it is high.
   const LyingCylinder standing = fit(viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.05 }, { 0, 0, 1 }, 0.034, 0.10)));
   EXPECT_FALSE(standing.found);
-  EXPECT_EQ(standing.why, "footprint not long enough for its height");
+  EXPECT_NE(standing.why, "");
   // Off by default, and nothing without a table plane.
   const ObjectView can_view = viewOf(synthetic::makeCylinder(centre, { 1, 0, 0 }, 0.034, 0.10));
   EXPECT_FALSE(fit(can_view, LyingCylinderParams{}).found);
@@ -144,6 +155,9 @@ TEST(LyingCylinder, ParametersAreValidated)
   EXPECT_NE(p.validate(), "");
   p = enabled();
   p.min_points = 2;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.max_normal_spread_ratio = 0.0;
   EXPECT_NE(p.validate(), "");
 }
 

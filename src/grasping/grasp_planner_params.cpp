@@ -339,6 +339,7 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     SectionReader lying(reader.child("lying_cylinder"), "fused/lying_cylinder");
     lying.read("enabled", p.lying_cylinder.enabled);
     lying.readNonNegative("min_length_to_height", p.lying_cylinder.min_length_to_height);
+    lying.readNonNegative("max_normal_spread_ratio", p.lying_cylinder.max_normal_spread_ratio);
     lying.readNonNegative("max_median_residual_frac", p.lying_cylinder.max_median_residual_frac);
     lying.readNonNegative("max_median_normal_angle_rad", p.lying_cylinder.max_median_normal_angle_rad);
     lying.readCount("min_points", p.lying_cylinder.min_points, 3);

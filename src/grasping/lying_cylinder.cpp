@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -18,37 +19,140 @@ float median(std::vector<float>& values)
   std::nth_element(values.begin(), middle, values.end());
   return *middle;
 }
-/// The axis's direction: the horizontal direction the side's normals are square to (the least
-/// spread of their horizontal parts), starting from the footprint's major axis and leaving out
-/// normals along the current estimate (an end face). The footprint alone is off by ~10 deg when
-/// the camera sees an end face (its points skew the seen footprint).
-Eigen::Vector3f axisFromNormals(const ObjectView& view, const ObjectExtent& extent)
+
+/// The horizontal direction the most normals are square to: a scan over half a turn (2 deg,
+/// then 0.1 deg steps) of the summed squared normal components along it, each capped at 0.25
+/// (a normal within 60 deg of the direction is an end face, not evidence against it). The seen
+/// footprint's major axis is no guide: an end face skews it by ~10 deg, and it runs across a
+/// can half hidden in a pile, seen shorter than it is wide.
+Eigen::Vector3f squareToMostNormals(const std::vector<Eigen::Vector3f>& normals, const Eigen::Vector3f& e1,
+                                    const Eigen::Vector3f& e2)
 {
-  const auto [e1, e2] = tablePlaneBasis(extent.up);
-  Eigen::Vector3f axis = extent.major_axis.normalized();
-  for (int iteration = 0; iteration < 2; ++iteration)
-  {
-    Eigen::Matrix2f scatter = Eigen::Matrix2f::Zero();
-    std::size_t used = 0;
-    for (const auto& p : view.cloud->points)
+  const auto cost = [&](float angle) {
+    const Eigen::Vector3f d = std::cos(angle) * e1 + std::sin(angle) * e2;
+    float sum = 0.0f;
+    for (const Eigen::Vector3f& n : normals)
+      sum += std::min(n.dot(d) * n.dot(d), 0.25f);
+    return sum;
+  };
+  const float degree = static_cast<float>(M_PI) / 180.0f;
+  float best_angle = 0.0f, best = std::numeric_limits<float>::max();
+  for (int i = 0; i < 90; ++i)
+    if (const float c = cost(2.0f * degree * static_cast<float>(i)); c < best)
     {
-      const Eigen::Vector3f n = p.getNormalVector3fMap();
-      if (!n.allFinite() || n.norm() < 0.5f || !p.getVector3fMap().allFinite())
-        continue;
-      const Eigen::Vector3f unit = n.normalized();
-      if (std::abs(unit.dot(axis)) > 0.7f)
-        continue;
-      const Eigen::Vector2f horizontal(unit.dot(e1), unit.dot(e2));
-      scatter += horizontal * horizontal.transpose();
-      ++used;
+      best = c;
+      best_angle = 2.0f * degree * static_cast<float>(i);
     }
-    if (used < 10)
-      break;
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> spread(scatter);
-    const Eigen::Vector2f least = spread.eigenvectors().col(0);  // eigenvalues ascending
-    axis = (least.x() * e1 + least.y() * e2).normalized();
+  const float coarse = best_angle;
+  for (int i = -20; i <= 20; ++i)
+    if (const float c = cost(coarse + 0.1f * degree * static_cast<float>(i)); c < best)
+    {
+      best = c;
+      best_angle = coarse + 0.1f * degree * static_cast<float>(i);
+    }
+  return std::cos(best_angle) * e1 + std::sin(best_angle) * e2;
+}
+
+/// The view seen along one horizontal axis: the circle of `radius` tangent to the table fitted
+/// to the points' cross-section, and how round they are about it.
+struct SectionFit
+{
+  Eigen::Vector3f axis = Eigen::Vector3f::UnitX();
+  Eigen::Vector3f axis_point = Eigen::Vector3f::Zero();
+  float median_residual_m = std::numeric_limits<float>::max();
+  float median_normal_angle_rad = static_cast<float>(M_PI);
+  float normal_spread_ratio = 1.0f;
+  float length_m = 0.0f;   // the points' span along the axis
+  float breadth_m = 0.0f;  // ... and across it
+  std::size_t normals_used = 0;
+};
+
+SectionFit fitSection(const std::vector<Eigen::Vector3f>& points, const std::vector<Eigen::Vector3f>& normals,
+                      const ObjectExtent& extent, const Eigen::Vector3f& axis, float radius)
+{
+  SectionFit fit;
+  fit.axis = axis;
+  const Eigen::Vector3f& up = extent.up;
+  const Eigen::Vector3f across = up.cross(axis).normalized();
+  std::vector<Eigen::Vector2f> section;  // (across, height above the table)
+  section.reserve(points.size());
+  float along_lo = std::numeric_limits<float>::max(), along_hi = -along_lo;
+  float across_lo = along_lo, across_hi = -along_lo;
+  for (const Eigen::Vector3f& q : points)
+  {
+    section.emplace_back(across.dot(q), up.dot(q) + extent.table_offset);
+    along_lo = std::min(along_lo, axis.dot(q));
+    along_hi = std::max(along_hi, axis.dot(q));
+    across_lo = std::min(across_lo, section.back().x());
+    across_hi = std::max(across_hi, section.back().x());
   }
-  return axis;
+  fit.length_m = along_hi - along_lo;
+  fit.breadth_m = across_hi - across_lo;
+  // The axis's position across: the one unknown, by a coarse-to-fine scan of the points' summed
+  // squared distance from the circle, each capped at a third of the radius (a bottle's neck,
+  // stray points: outliers, not evidence), over the seen points' span and a radius beyond it
+  // on both sides (40 steps, then 40 within the best step's neighbours, twice: ~0.05 mm).
+  const auto cost = [&](float centre) {
+    const float cap = radius * radius / 9.0f;
+    float sum = 0.0f;
+    for (const Eigen::Vector2f& s : section)
+    {
+      const float e = Eigen::Vector2f(s.x() - centre, s.y() - radius).norm() - radius;
+      sum += std::min(e * e, cap);
+    }
+    return sum;
+  };
+  float lo = across_lo - radius, hi = across_hi + radius;
+  float axis_across = 0.5f * (lo + hi);
+  for (int level = 0; level < 3; ++level)
+  {
+    const int steps = 40;
+    const float step = (hi - lo) / static_cast<float>(steps);
+    float best = std::numeric_limits<float>::max();
+    for (int i = 0; i <= steps; ++i)
+    {
+      const float centre = lo + step * static_cast<float>(i);
+      if (const float c = cost(centre); c < best)
+      {
+        best = c;
+        axis_across = centre;
+      }
+    }
+    lo = axis_across - step;
+    hi = axis_across + step;
+  }
+  fit.axis_point = axis_across * across + (radius - extent.table_offset) * up + 0.5f * (along_lo + along_hi) * axis;
+
+  // Round: the points lie on the circle, their normals point away from its axis, and the side's
+  // normals (not an end face's) all lie in the cross-section, spread within it.
+  std::vector<float> residuals, angles;
+  residuals.reserve(section.size());
+  angles.reserve(section.size());
+  Eigen::Matrix2f scatter = Eigen::Matrix2f::Zero();
+  const auto [e1, e2] = tablePlaneBasis(up);
+  for (std::size_t i = 0; i < section.size(); ++i)
+  {
+    const Eigen::Vector2f radial(section[i].x() - axis_across, section[i].y() - radius);
+    residuals.push_back(std::abs(radial.norm() - radius));
+    const Eigen::Vector3f& n = normals[i];
+    if (!n.allFinite() || n.norm() < 0.5f || radial.norm() < 1e-4f || std::abs(n.normalized().dot(axis)) > 0.5f)
+      continue;  // no normal, or an end face's
+    const Eigen::Vector3f unit = n.normalized();
+    const Eigen::Vector2f horizontal(unit.dot(e1), unit.dot(e2));
+    scatter += horizontal * horizontal.transpose();
+    // normals are oriented toward the sensor, the near half's outward side: the sign is free
+    const Eigen::Vector2f in_section(across.dot(unit), up.dot(unit));
+    const float cosine = std::abs(in_section.normalized().dot(radial.normalized()));
+    angles.push_back(std::acos(std::min(cosine, 1.0f)));
+  }
+  fit.median_residual_m = median(residuals);
+  fit.normals_used = angles.size();
+  if (!angles.empty())
+    fit.median_normal_angle_rad = median(angles);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> spread(scatter);
+  fit.normal_spread_ratio =
+      spread.eigenvalues()(1) > 1e-9f ? spread.eigenvalues()(0) / spread.eigenvalues()(1) : 1.0f;
+  return fit;
 }
 }  // namespace
 
@@ -57,6 +161,8 @@ std::string LyingCylinderParams::validate() const
   std::ostringstream why;
   if (!(min_length_to_height >= 0.0 && min_length_to_height <= 100.0))
     why << "lying_cylinder min_length_to_height must be in [0, 100]; ";
+  if (!(max_normal_spread_ratio > 0.0 && max_normal_spread_ratio <= 1.0))
+    why << "lying_cylinder max_normal_spread_ratio must be in (0, 1]; ";
   if (!(max_median_residual_frac > 0.0 && max_median_residual_frac <= 1.0))
     why << "lying_cylinder max_median_residual_frac must be in (0, 1]; ";
   if (!(max_median_normal_angle_rad > 0.0 && max_median_normal_angle_rad <= M_PI))
@@ -79,101 +185,54 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
     return refuse("off");
   if (!view.has_table_plane || !view.cloud)
     return refuse("no table plane");
+  std::vector<Eigen::Vector3f> points, normals, unit_normals;
+  points.reserve(view.cloud->size());
+  normals.reserve(view.cloud->size());
+  for (const auto& p : view.cloud->points)
+  {
+    if (!p.getVector3fMap().allFinite())
+      continue;
+    points.push_back(p.getVector3fMap());
+    normals.push_back(p.getNormalVector3fMap());
+    if (normals.back().allFinite() && normals.back().norm() > 0.5f)
+      unit_normals.push_back(normals.back().normalized());
+  }
+  if (points.size() < params.min_points || unit_normals.size() < params.min_points)
+    return refuse("too few points");
   const float radius = 0.5f * extent.height_m;
-  if (extent.length_m < static_cast<float>(params.min_length_to_height) * extent.height_m)
-    return refuse("footprint not long enough for its height");
+  // The direction most normals are square to is the axis, or, when an end face fills the view
+  // (a short can seen along its axis), the end face's normal is what most are square to and the
+  // axis lies across it: both are fitted, the rounder section wins.
+  const auto [e1, e2] = tablePlaneBasis(extent.up);
+  const Eigen::Vector3f first = squareToMostNormals(unit_normals, e1, e2);
+  const std::array<Eigen::Vector3f, 2> axes{ first, extent.up.cross(first).normalized() };
+  SectionFit best;
+  for (const Eigen::Vector3f& axis : axes)
+  {
+    SectionFit fit = fitSection(points, normals, extent, axis, radius);
+    if (fit.median_residual_m < best.median_residual_m)
+      best = fit;
+  }
+  out.axis = best.axis;
+  out.axis_point = best.axis_point;
+  out.radius_m = radius;
+  out.median_residual_m = best.median_residual_m;
+  out.median_normal_angle_rad = best.median_normal_angle_rad;
+  out.normal_spread_ratio = best.normal_spread_ratio;
+  if (best.length_m < static_cast<float>(params.min_length_to_height) * extent.height_m)
+    return refuse("not long enough for its height");
   // A circle's footprint is as wide as the circle is high, and a camera above the table sees
   // at least its near half: a box on its side (a cereal box: 6 cm deep, 17 cm high) is not one,
   // however well its big faces fit a circle that large.
-  if (extent.breadth_m < 0.5f * extent.height_m || extent.breadth_m > 1.25f * extent.height_m)
+  if (best.breadth_m < 0.5f * extent.height_m || best.breadth_m > 1.25f * extent.height_m)
     return refuse("footprint not as wide as it is high");
-  const Eigen::Vector3f& up = extent.up;
-  const Eigen::Vector3f axis = axisFromNormals(view, extent);
-  const Eigen::Vector3f across = up.cross(axis).normalized();
-
-  // Each point's (across, height) in the cross-section.
-  std::vector<Eigen::Vector2f> section;
-  std::vector<Eigen::Vector3f> normals;
-  section.reserve(view.cloud->size());
-  normals.reserve(view.cloud->size());
-  float along_lo = std::numeric_limits<float>::max(), along_hi = -along_lo;
-  float across_lo = along_lo, across_hi = -along_lo;
-  for (const auto& p : view.cloud->points)
-  {
-    const Eigen::Vector3f q = p.getVector3fMap();
-    if (!q.allFinite())
-      continue;
-    section.emplace_back(across.dot(q), up.dot(q) + extent.table_offset);
-    normals.push_back(p.getNormalVector3fMap());
-    along_lo = std::min(along_lo, axis.dot(q));
-    along_hi = std::max(along_hi, axis.dot(q));
-    across_lo = std::min(across_lo, section.back().x());
-    across_hi = std::max(across_hi, section.back().x());
-  }
-  if (section.size() < params.min_points)
-    return refuse("too few points");
-  // The axis's position across: the one unknown, by a coarse-to-fine scan of the points' summed
-  // squared distance from the circle, each capped at a third of the radius (a bottle's neck,
-  // stray points: outliers, not evidence), over the seen points' span and a radius beyond it
-  // on both sides (40 steps, then 40 within the best step's neighbours, twice: ~0.05 mm).
-  const auto cost = [&](float centre) {
-    const float cap = radius * radius / 9.0f;
-    float sum = 0.0f;
-    for (const Eigen::Vector2f& s : section)
-    {
-      const float e = Eigen::Vector2f(s.x() - centre, s.y() - radius).norm() - radius;
-      sum += std::min(e * e, cap);
-    }
-    return sum;
-  };
-  float lo = std::min(across_lo, across_hi) - radius, hi = std::max(across_lo, across_hi) + radius;
-  float axis_across = 0.5f * (lo + hi);
-  for (int level = 0; level < 3; ++level)
-  {
-    const int steps = 40;
-    const float step = (hi - lo) / static_cast<float>(steps);
-    float best = std::numeric_limits<float>::max();
-    for (int i = 0; i <= steps; ++i)
-    {
-      const float centre = lo + step * static_cast<float>(i);
-      const float c = cost(centre);
-      if (c < best)
-      {
-        best = c;
-        axis_across = centre;
-      }
-    }
-    lo = axis_across - step;
-    hi = axis_across + step;
-  }
-  // Round, not a box: the points lie on the circle and their normals point away from its axis.
-  std::vector<float> residuals, angles;
-  residuals.reserve(section.size());
-  angles.reserve(section.size());
-  for (std::size_t i = 0; i < section.size(); ++i)
-  {
-    const Eigen::Vector2f radial(section[i].x() - axis_across, section[i].y() - radius);
-    residuals.push_back(std::abs(radial.norm() - radius));
-    const Eigen::Vector3f& n = normals[i];
-    if (!n.allFinite() || n.norm() < 0.5f || radial.norm() < 1e-4f)
-      continue;
-    const Eigen::Vector2f n2(across.dot(n), up.dot(n));
-    if (n2.norm() < 0.3f * n.norm())
-      continue;  // along the axis: an end face
-    // normals are oriented toward the sensor, the near half's outward side: the sign is free
-    const float cosine = std::abs(n2.normalized().dot(radial.normalized()));
-    angles.push_back(std::acos(std::min(cosine, 1.0f)));
-  }
-  out.radius_m = radius;
-  out.median_residual_m = median(residuals);
-  out.median_normal_angle_rad = angles.empty() ? 0.0f : median(angles);
-  out.axis = axis;
-  out.axis_point = axis_across * across + (radius - extent.table_offset) * up + 0.5f * (along_lo + along_hi) * axis;
-  if (out.median_residual_m > static_cast<float>(params.max_median_residual_frac) * radius)
+  if (best.median_residual_m > static_cast<float>(params.max_median_residual_frac) * radius)
     return refuse("points off the circle");
-  if (angles.size() * 4 < section.size() ||
-      out.median_normal_angle_rad > static_cast<float>(params.max_median_normal_angle_rad))
+  if (best.normals_used * 4 < points.size() ||
+      best.median_normal_angle_rad > static_cast<float>(params.max_median_normal_angle_rad))
     return refuse("normals not radial");
+  if (best.normal_spread_ratio > static_cast<float>(params.max_normal_spread_ratio))
+    return refuse("normals not square to one horizontal axis");
   out.found = true;
   return out;
 }

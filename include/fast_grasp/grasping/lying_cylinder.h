@@ -30,9 +30,13 @@ struct LyingCylinderParams
 {
   /// Look for a lying round object at all (false: never found, nothing is demoted).
   bool enabled = false;
-  /// The footprint must be at least this many times longer than the object is high (a can
-  /// on its side; a standing or flat object is not lying round).
-  double min_length_to_height = 1.2;
+  /// The footprint must be at least this many times longer than the object is high: a cheap
+  /// first test (a can half hidden in a pile is seen shorter than it is wide; the tests below
+  /// tell a standing can).
+  double min_length_to_height = 0.6;
+  /// The side's normals square to one horizontal axis: their horizontal parts' least spread
+  /// over their most (0 on a lying cylinder, ~1 on a standing one or a sphere).
+  double max_normal_spread_ratio = 0.1;
   /// Round, not a box: the seen points' median distance from the fitted circle, as a fraction
   /// of the radius (a lying box's top corners lie up to 0.4 radius off its circle; a bottle's
   /// neck is a minority of its points), and the median angle between their normals and the
@@ -57,6 +61,7 @@ struct LyingCylinder
   float radius_m = 0.0f;
   float median_residual_m = 0.0f;        // median |distance from the axis - radius| of the seen points
   float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
+  float normal_spread_ratio = 1.0f;      // least over most spread of the normals' horizontal parts
   std::string why;               // when not found: which test failed
 };
 
