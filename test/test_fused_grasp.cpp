@@ -32,6 +32,19 @@ ObjectView boxView(double spacing_m = 0.002)
   return view;
 }
 
+/// A can of `radius_m` and `length_m` lying along y on the table (z = 0), seen from 52 deg above
+/// on its -x side (the camera sees its top and near side), points `spacing_m` apart.
+ObjectView lyingCanView(double radius_m, double length_m, double spacing_m)
+{
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
+  auto cloud = synthetic::renderView(
+      synthetic::makeCylinder({ 0.0, 0.0, radius_m }, { 0.0, 1.0, 0.0 }, radius_m, length_m), { camera, spacing_m, 0.0, 1 });
+  ObjectView view = synthetic::makeObjectView(cloud, camera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
 std::size_t featureIndex(const std::string& name)
 {
   const auto& names = graspFeatureNames();
@@ -254,12 +267,7 @@ TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
   // the top: the fingertips (2 cm below the line) end at 3 cm, above the equator, and the
   // can slips out on the lift. Pushed deeper until the palm (2 cm above the line) is
   // palm_clearance_m = 5 mm over the top, the line is at 3.5 cm, the fingertips at 1.5 cm.
-  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
-  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.025 }, { 0.0, 1.0, 0.0 }, 0.025, 0.15),
-                                     { camera, 0.002, 0.0, 1 });
-  ObjectView view = synthetic::makeObjectView(cloud, camera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectView view = lyingCanView(0.025, 0.15, 0.002);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
   GraspCandidate at_top;
   at_top.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
@@ -305,12 +313,7 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
   // order decides. The first comes 35 deg from vertical from the camera's side with its
   // fingertips 8 mm short of the axis (they touch above the widest section: in physics it
   // squeezes out); the second from above with its fingertips at 3 cm, 4 mm past the axis.
-  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
-  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0.0, 1.0, 0.0 }, 0.034, 0.10),
-                                     { camera, 0.003, 0.0, 1 });
-  ObjectView view = synthetic::makeObjectView(cloud, camera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectView view = lyingCanView(0.034, 0.10, 0.003);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
   const double tilt = 35.0 * M_PI / 180.0;
   const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
@@ -371,14 +374,9 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
   // cm off the table) through the axis (x = 0; the seen near edge at x = -3.3 cm plus the
   // height), width 6.6 cm; the palm palm_clearance_m before the end, the fingers around it.
   const double radius = 0.033, length = 0.12;
-  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);
   // 4 mm spacing: below max_pooled_points, so no full-resolution re-check (no pooled planner
   // gives an unseen part here; with one, the far finger must stay out of it as well)
-  auto cloud = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, radius }, { 0.0, 1.0, 0.0 }, radius, length),
-                                     { camera, 0.004, 0.0, 1 });
-  ObjectView view = synthetic::makeObjectView(cloud, camera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectView view = lyingCanView(radius, length, 0.004);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
   FusedParams p = noCandidatesOfItsOwn();
   p.gripper_fit.max_table_tilt_rad = 0.0;
@@ -420,6 +418,7 @@ TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
       << beside_hidden.message;
   // Standing up, 12 cm tall: higher than the opening, so nothing says how far its hidden back
   // reaches (an upright cracker box's is 6 cm behind its front, not 12): no end grasps.
+  const Eigen::Vector3d camera(-0.35, 0.0, 0.45);  // lyingCanView's
   auto standing = synthetic::renderView(synthetic::makeCylinder({ 0.0, 0.0, 0.5 * length }, { 0.0, 0.0, 1.0 }, radius, length),
                                         { camera, 0.004, 0.0, 1 });
   ObjectView upright = synthetic::makeObjectView(standing, camera);
