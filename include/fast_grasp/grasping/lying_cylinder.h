@@ -30,9 +30,9 @@ struct LyingCylinderParams
 {
   /// Look for a lying round object at all (false: never found, nothing is demoted).
   bool enabled = false;
-  /// The footprint must be at least this many times longer than the object is high: a cheap
-  /// first test (a can half hidden in a pile is seen shorter than it is wide; the tests below
-  /// tell a standing can).
+  /// The seen points must span at least this many times the object's height along the axis: a
+  /// cheap first test (a can half hidden in a pile is seen shorter than it is wide; the tests
+  /// below tell a standing can).
   double min_length_to_height = 0.6;
   /// The side's normals square to one horizontal axis: their horizontal parts' least spread
   /// over their most (0 on a lying cylinder, ~1 on a standing one or a sphere).
@@ -41,8 +41,8 @@ struct LyingCylinderParams
   /// of the radius (a lying box's top corners lie up to 0.4 radius off its circle; a bottle's
   /// neck is a minority of its points), and the median angle between their normals and the
   /// direction away from the axis (a box's faces: up to 45 deg).
-  double max_median_residual_frac = 0.08;
-  double max_median_normal_angle_rad = 0.3;
+  double max_median_residual_frac = 0.18;
+  double max_median_normal_angle_rad = 0.22;
   /// Fewest finite points the fit needs.
   std::size_t min_points = 30;
   /// A grasp closing across the axis (fingertipReachPastAxis) whose fingertips pass the axis
@@ -62,7 +62,7 @@ struct LyingCylinder
   float median_residual_m = 0.0f;        // median |distance from the axis - radius| of the seen points
   float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
   float normal_spread_ratio = 1.0f;      // least over most spread of the normals' horizontal parts
-  std::string why;               // when not found: which test failed
+  std::string why;                       // when not found: which test failed
 };
 
 /// Fits a lying round object to `view` (extent: objectExtent(view)). Found only with a table
