@@ -1,6 +1,6 @@
 // planGraspMotion's choice of grasp and of how to reach it (as given, flipped 180 deg about
 // the approach axis, tilted about the closing axis), its skip reasons, and buildGraspScene's
-// table box. Hand-made scenes around the UR5 + Lacquey gripper + wrist Xtion of urdf/.
+// table box and unseen part. Hand-made scenes around the UR5 + Lacquey gripper + wrist Xtion of urdf/.
 #include "fast_grasp/arm/grasp_execution.h"
 #include "fast_grasp/arm/table_grasp_motion.h"
 
@@ -233,6 +233,77 @@ TEST(GraspScene, TheTableIsABoxTopAtItsPlaneNotVoxelsAboveIt)
   const GraspPlanResult blocked = planGraspMotion(s.collision, home(), { into }, as_given_only);
   ASSERT_FALSE(blocked.success);
   EXPECT_NE(blocked.skipped_reasons[0].find("box table"), std::string::npos) << reasons(blocked);
+}
+
+// A box seen from the front (-x): its face at x = 0.50 m is all the camera saw; the unseen
+// part is the 10 cm shadow behind it (UnseenPartParams::extension_m), while the box itself is
+// 6 cm deep. A top-down grasp closing across that depth puts its back finger past the box,
+// where the shadow still reaches: the grasp planner's hand check (exact points) allowed that,
+// so the arm planner must too, while nothing but the hand may enter the shadow.
+pcl::PointCloud<pcl::PointXYZ> boxFace()
+{
+  pcl::PointCloud<pcl::PointXYZ> face;
+  for (float y = -0.03f; y <= 0.03f + 1e-4f; y += 0.005f)
+    for (float z = 0.01f; z <= 0.12f + 1e-4f; z += 0.005f)
+      face.push_back(pcl::PointXYZ(0.50f, y, z));
+  return face;
+}
+pcl::PointCloud<pcl::PointXYZ> slab(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi)
+{
+  pcl::PointCloud<pcl::PointXYZ> points;
+  for (float x = lo.x(); x <= hi.x() + 1e-4f; x += 0.005f)
+    for (float y = lo.y(); y <= hi.y() + 1e-4f; y += 0.005f)
+      for (float z = lo.z(); z <= hi.z() + 1e-4f; z += 0.005f)
+        points.push_back(pcl::PointXYZ(x, y, z));
+  return points;
+}
+
+TEST(GraspScene, TheHandMayEnterTheUnseenPartTheRestOfTheArmMayNot)
+{
+  Scene s;
+  const pcl::PointCloud<pcl::PointXYZ> face = boxFace();
+  const pcl::PointCloud<pcl::PointXYZ> shadow = slab({ 0.505f, -0.03f, 0.01f }, { 0.60f, 0.03f, 0.12f });
+  GraspSceneClouds clouds;
+  clouds.object = &face;
+  clouds.unseen = &shadow;
+  const std::string note = buildGraspScene(s.collision, home(), clouds, s.params);
+  EXPECT_NE(note.find(std::to_string(face.size()) + " object points"), std::string::npos) << note;
+  EXPECT_NE(note.find(std::to_string(shadow.size()) + " unseen-part points"), std::string::npos) << note;
+  EXPECT_EQ(s.collision.obstacleVoxelCount(), 0u) << note;
+
+  // Closing line along x through the box's middle (x = 0.53), fingers 9 cm long centred on
+  // z = 0.10: the inner faces at 0.53 -+ 0.065 (open 13 cm), so the back finger spans
+  // x = 0.595 .. 0.613, 5 mm inside the shadow; the palm (z > 0.145) is above the box (0.12).
+  GraspCandidate across;
+  across.pose = makeGraspPose(Eigen::Vector3d(0.53, 0.0, 0.10), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  GraspExecutionParams as_given_only = s.params;
+  as_given_only.try_flipped_grasp = false;
+  as_given_only.max_approach_tilt_deg = 0.0;
+  const GraspPlanResult r = planGraspMotion(s.collision, home(), { across }, as_given_only);
+  ASSERT_TRUE(r.success) << reasons(r);
+  // At the grasp the fingers are in the shadow: a contact only the final approach allows.
+  const Eigen::VectorXd& at_grasp = r.points[r.grasp_point_index].positions;
+  std::string why;
+  EXPECT_TRUE(s.collision.inCollision(at_grasp, CollisionCheckOptions(), &why));
+  EXPECT_NE(why.find("target / "), std::string::npos) << why;
+  EXPECT_NE(why.find("finger_link"), std::string::npos) << why;
+  CollisionCheckOptions final_approach;
+  final_approach.allow_finger_target_contact = true;
+  EXPECT_FALSE(s.collision.inCollision(at_grasp, final_approach, &why)) << why;
+
+  // The shadow as the bench under a side grasp (TheFlippedHandIsUsedWhenOnlyItFits...): the
+  // wrist camera hanging below the hand may not enter it, even in the final approach.
+  Scene bench;
+  const pcl::PointCloud<pcl::PointXYZ> target = slab({ 0.49f, -0.01f, 0.24f }, { 0.51f, 0.01f, 0.26f });
+  const pcl::PointCloud<pcl::PointXYZ> hidden = slab({ 0.30f, -0.20f, 0.10f }, { 0.62f, 0.20f, 0.18f });
+  GraspSceneClouds bench_clouds;
+  bench_clouds.object = &target;
+  bench_clouds.unseen = &hidden;
+  buildGraspScene(bench.collision, home(), bench_clouds, bench.params);
+  const GraspPlanResult blocked = planGraspMotion(bench.collision, home(), { sideGraspAboveBench() }, as_given_only);
+  ASSERT_FALSE(blocked.success) << reasons(blocked);
+  ASSERT_EQ(blocked.skipped_reasons.size(), 1u);
+  EXPECT_NE(blocked.skipped_reasons[0].find("target / xtion_link"), std::string::npos) << blocked.skipped_reasons[0];
 }
 
 TEST(GraspScene, WithoutAPlaneEveryScenePointIsAnObstacle)

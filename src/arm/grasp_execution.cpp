@@ -239,11 +239,29 @@ std::string buildGraspScene(RobotCollision& collision, const Eigen::VectorXd& ro
             " scene points";
   else
     note += "no scene cloud";
-  if (clouds.object && !clouds.object->empty())
-    note += ", " + std::to_string(collision.setTargetCloud(*clouds.object)) + " object points";
+  // The unseen part joins the target, not the obstacles: it is where the object's hidden side
+  // is, and the grasp planner has already fitted its hand against it at finer than voxel
+  // resolution (gripper_volume.h). As a target, the arm and the wrist camera keep out of it
+  // and only the object_contact_links may enter it in the final approach; as 5 mm obstacle
+  // voxels it rejected every finger the grasp planner had placed beside it (session 21:
+  // cracker_box's second frame, every C-shape grasp "octomap / finger_link").
+  pcl::PointCloud<pcl::PointXYZ> target;
+  if (clouds.object)
+    target = *clouds.object;
+  std::size_t unseen_points = 0;
   if (clouds.unseen && !clouds.unseen->empty())
-    note += ", " + std::to_string(collision.addObstacleCloud(*clouds.unseen, robot_state, params.self_filter_padding_m)) +
-            " unseen-part points";
+  {
+    const pcl::PointCloud<pcl::PointXYZ> unseen =
+        collision.removeRobotPoints(*clouds.unseen, robot_state, params.self_filter_padding_m);
+    unseen_points = unseen.size();
+    target += unseen;
+  }
+  // removeRobotPoints keeps finite points only, so what setTargetCloud counts beyond them is the object's.
+  const std::size_t inserted = target.empty() ? 0 : collision.setTargetCloud(target);
+  if (clouds.object && !clouds.object->empty())
+    note += ", " + std::to_string(inserted - std::min(inserted, unseen_points)) + " object points";
+  if (unseen_points > 0)
+    note += ", " + std::to_string(unseen_points) + " unseen-part points";
   return note;
 }
 

@@ -91,7 +91,7 @@ struct GraspSceneClouds
 {
   const pcl::PointCloud<pcl::PointXYZ>* scene = nullptr;   // everything but the object, table included
   const pcl::PointCloud<pcl::PointXYZ>* object = nullptr;  // the target: only the fingers may touch it
-  const pcl::PointCloud<pcl::PointXYZ>* unseen = nullptr;  // space hidden behind the object (an obstacle)
+  const pcl::PointCloud<pcl::PointXYZ>* unseen = nullptr;  // space hidden behind the object: target, hand only
   std::optional<Eigen::Vector4f> table_plane;              // a, b, c, d; (a, b, c) from the table up
 };
 
@@ -99,8 +99,10 @@ struct GraspSceneClouds
 /// whose top is the fitted plane: voxelised, they would raise the table by up to a voxel plus
 /// the sensor noise (1-2 cm at 1 cm voxels), which is exactly the clearance a fingertip has
 /// in a low grasp. Scene points within table_band_m above the plane (and those under it, down
-/// to the box's bottom) are the table; everything else, and the unseen part, goes to the
-/// obstacle OctoMap after the self filter at `robot_state`. Returns a one-line summary.
+/// to the box's bottom) are the table; everything else goes to the obstacle OctoMap after the
+/// self filter at `robot_state`. The unseen part (self-filtered too) joins the object in the
+/// target OctoMap: only the hand may enter it, on the final approach, since the grasp planners
+/// fit the hand against it point by point and 5 mm voxels would undo that. Returns a one-line summary.
 std::string buildGraspScene(RobotCollision& collision, const Eigen::VectorXd& robot_state,
                             const GraspSceneClouds& clouds, const GraspExecutionParams& params);
 
