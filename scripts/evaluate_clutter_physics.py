@@ -79,6 +79,12 @@ def parse_args(argv):
                    help="passed to grasp_offline: plan for every cluster, grasps kept clear of the other objects and "
                         "their unseen parts, the object picked by table_grasps/object_choice (issue 11 part 3)")
     p.add_argument("--jobs", type=int, default=1)
+    p.add_argument("--only-tables", default="",
+                   help="comma list of table indices to run (the same tables as in a full run: a table's "
+                        "objects and poses depend only on --seed, the arrangement and its index)")
+    p.add_argument("--keep-scenes", default="",
+                   help="keep every attempt's renderer scene (scene.yaml, meshes) and target cluster under "
+                        "this folder, one sub-folder per table and attempt, to replay with grasp_offline --scene")
     p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/clutter"))
     p.add_argument("--cache-dir", default=os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
                                                          "physics_cache"))
@@ -96,6 +102,10 @@ def parse_args(argv):
     if not 1 <= args.min_objects <= args.max_objects:
         p.error("--objects-per-table MIN,MAX with 1 <= MIN <= MAX")
     args.arrangement_list = [a for a in args.arrangements.split(",") if a]
+    try:
+        args.only_table_list = [int(x) for x in args.only_tables.split(",") if x]
+    except ValueError:
+        p.error("--only-tables: comma list of table indices")
     if not args.arrangement_list or set(args.arrangement_list) - {"packed", "piled"}:
         p.error("--arrangements: packed, piled or packed,piled")
     args.planner_list = [x for x in args.planners.split(",") if x]
@@ -203,8 +213,14 @@ def clear_table(job):
             centre = np.array([np.mean([p[0][0] for p in poses]), np.mean([p[0][1] for p in poses]),
                                0.5 * max(tops)])
             eye, target = single.camera_for(centre, rng)
-            scene_yaml = write_clutter_scene(folder, scene, poses, names, eye, target, seed % 100000 + attempt)
-            cluster_pcd = os.path.join(folder, "cluster_%d.pcd" % attempt)
+            attempt_folder = folder
+            if args.keep_scenes:
+                attempt_folder = os.path.join(args.keep_scenes, "%s_%s_table%d_attempt%d"
+                                              % (planner, arrangement, index, attempt))
+                os.makedirs(attempt_folder, exist_ok=True)
+            scene_yaml = write_clutter_scene(attempt_folder, scene, poses, names, eye, target,
+                                             seed % 100000 + attempt)
+            cluster_pcd = os.path.join(attempt_folder, "cluster_%d.pcd" % attempt)
             report = single.plan(grasp_offline, scene_yaml, planner, single.gripper_path(args.gripper), args,
                                  cluster_pcd)
             grasps = single.grasps_from_report(report)
@@ -320,7 +336,8 @@ def main(argv):
     if not candidates:
         sys.exit("no objects that fit %s" % gripper["name"])
     jobs = [(args, planner, arrangement, index, candidates)
-            for planner in args.planner_list for arrangement in args.arrangement_list for index in range(args.tables)]
+            for planner in args.planner_list for arrangement in args.arrangement_list for index in range(args.tables)
+            if not args.only_table_list or index in args.only_table_list]
     os.makedirs(args.out_dir, exist_ok=True)
     t0 = time.time()
     if args.jobs > 1:

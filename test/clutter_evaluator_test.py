@@ -3,7 +3,8 @@
 scripts/evaluate_clutter_physics.py, issue 11 parts 1 and 4): a packed table's objects end
 upright and touching, a piled table settles with every object on the table and some resting on
 others, a grasp in clutter that lifts one object names it, and a fixed 3-object packed table is
-cleared end to end through grasp_offline with the same result twice.
+cleared end to end through grasp_offline with the same result twice (the second time picked out
+of a longer run with --only-tables, its scenes kept with --keep-scenes).
 
 Runs in the evaluator's venv (scripts/setup_venv.sh):
     .ws/venv/bin/python test/clutter_evaluator_test.py --grasp-offline .ws/devel/lib/fast_grasp/grasp_offline
@@ -114,11 +115,11 @@ class ClutterTest(unittest.TestCase):
         self.assertEqual(outcome["lifted_together"], 1, outcome)
 
     def test_fixed_packed_table_cleared_twice_the_same(self):
-        def run(out_dir):
+        def run(out_dir, extra=("--tables", "1")):
             cmd = [sys.executable, os.path.join(ROOT, "scripts/evaluate_clutter_physics.py"), "--planners", "fused",
-                   "--gripper", "robotiq_2f85", "--tables", "1", "--objects-per-table", "3,3",
+                   "--gripper", "robotiq_2f85", "--objects-per-table", "3,3",
                    "--arrangements", "packed", "--kinds", "parametric", "--objects", ",".join(PACKED_OBJECTS[:3]),
-                   "--seed", "3", "--jobs", "1", "--out-dir", out_dir, "--grasp-offline", GRASP_OFFLINE]
+                   "--seed", "3", "--jobs", "1", "--out-dir", out_dir, "--grasp-offline", GRASP_OFFLINE] + list(extra)
             result = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
             self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
             with open(os.path.join(out_dir, "attempts.csv")) as f:
@@ -141,8 +142,17 @@ class ClutterTest(unittest.TestCase):
         self.assertEqual(int(tables[0]["successes"]), successes)
         self.assertEqual(int(tables[0]["cleared"]), successes)
         self.assertEqual(sum(a["grasped_object"] != "" for a in attempts), successes)
-        # determinism: the same seed gives the same attempts, grasps and summary
-        lines_b, attempts_b, tables_b = run(tempfile.mkdtemp(prefix="fg_clutter_b_"))
+        # determinism: the same seed gives the same attempts, grasps and summary; a table
+        # picked out of a longer run with --only-tables is that same table, and --keep-scenes
+        # leaves each attempt's scene to replay
+        kept = tempfile.mkdtemp(prefix="fg_clutter_scenes_")
+        lines_b, attempts_b, tables_b = run(tempfile.mkdtemp(prefix="fg_clutter_b_"),
+                                            ("--tables", "3", "--only-tables", "0", "--keep-scenes", kept))
+        for a in attempts:
+            folder = os.path.join(kept, "fused_packed_table0_attempt%s" % a["attempt"])
+            self.assertTrue(os.path.exists(os.path.join(folder, "scene.yaml")), folder)
+            if a["success"] != "":  # grasp_offline saves the target cluster when it planned a grasp
+                self.assertTrue(os.path.exists(os.path.join(folder, "cluster_%s.pcd" % a["attempt"])), folder)
         self.assertEqual(lines[-1], lines_b[-1])
         self.assertEqual(tables, tables_b)
         drop = ("planning_ms", "message")  # timing differs; the message carries timings of some planners
