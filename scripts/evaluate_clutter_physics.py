@@ -45,7 +45,7 @@ import evaluate_grasps_physics as single  # noqa: E402  (camera, planning and re
 
 FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "status",
           "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object",
-          "closed_on", "failure_phase", "unexpected_contact",
+          "closed_on", "touched_first", "failure_phase", "unexpected_contact",
           "contact_phase", "table_contact", "lifted_together", "unstable", "rolled_away", "grasp_x", "grasp_y",
           "grasp_z", "approach_x", "approach_y", "approach_z", "width_m", "score", "source"]
 TABLE_FIELDS = ["planner", "gripper", "arrangement", "table", "seed", "objects", "objects_placed", "attempts",
@@ -243,6 +243,7 @@ def clear_table(job):
                        unstable=outcome["unstable"],
                        grasped_object=names[outcome["grasped"]] if outcome["grasped"] >= 0 else "",
                        closed_on=names[outcome["closed_on"]] if outcome["closed_on"] >= 0 else "",
+                       touched_first=names[outcome["touched_first"]] if outcome["touched_first"] >= 0 else "",
                        grasp_x=grasp["position"][0], grasp_y=grasp["position"][1], grasp_z=grasp["position"][2],
                        approach_x=r[0, 0], approach_y=r[1, 0], approach_z=r[2, 0], width_m=grasp["width_m"],
                        score=grasp["score"], source=grasp.get("source", ""))

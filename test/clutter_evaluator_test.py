@@ -113,6 +113,16 @@ class ClutterTest(unittest.TestCase):
         self.assertTrue(outcome["success"], outcome)
         self.assertEqual(outcome["grasped"], 1, outcome)
         self.assertEqual(outcome["lifted_together"], 1, outcome)
+        self.assertEqual(outcome["touched_first"], -1, outcome)  # the open fingers clear all three
+
+        # Closing along the row instead (across the box's 6.3 cm, the hand open 8.5 cm): the
+        # fingers come down on the cans beside the box, and the first object touched is a can.
+        along = np.array([1.0, 0, 0])
+        rotation = np.stack([approach, along, np.cross(approach, along)], axis=1)
+        scene.set_poses(poses)
+        outcome = scene.execute(poses, rotation, centre)
+        self.assertTrue(outcome["unexpected_contact"], outcome)
+        self.assertIn(outcome["touched_first"], (0, 2), outcome)
 
     def test_fixed_packed_table_cleared_twice_the_same(self):
         def run(out_dir, extra=("--tables", "1")):

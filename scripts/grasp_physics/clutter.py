@@ -132,11 +132,15 @@ class ClutterScene:
     def execute(self, poses, grasp_rotation, grasp_position):
         """trial.execute_grasp with every object of the scene present. Success: an object rose
         more than lifted_m and is in both fingers at the end (`grasped` is its index, -1 when
-        none). Unexpected contact: the hand touches the table, or any object before closing."""
+        none). Unexpected contact: the hand touches the table, or any object before closing;
+        `touched_first` is the index of the first object the hand touched before closing (-1:
+        none), which tells a hand that ran into the object it was sent for (its hidden side)
+        from one that hit a neighbour."""
         d, p = self.data, self.params
         self.set_poses(poses)
         rest_z = [float(d.xipos[b][2]) for b in self.bodies]
         closed_on = []
+        touched_first = []
 
         def closed_on_object():
             closed_on[:] = self.objects_in_both_fingers()
@@ -147,13 +151,19 @@ class ClutterScene:
                     if d.xipos[self.bodies[k]][2] - rest_z[k] > p.lifted_m]
 
         def hand_touches(pairs, prefix):
-            return any(any(r.startswith(prefix) for r in pr) and any(r.startswith(h) for h in HAND_ROLES for r in pr)
-                       for pr in pairs)
+            touching = [pr for pr in pairs
+                        if any(r.startswith(prefix) for r in pr) and any(r.startswith(h) for h in HAND_ROLES for r in pr)]
+            # execute_grasp asks about objects only before closing (pregrasp and approach)
+            if prefix == "object" and touching and not touched_first:
+                touched_first.append(min(int(r[len("object"):]) for pr in touching for r in pr
+                                         if r.startswith("object")))
+            return bool(touching)
 
         outcome = execute_grasp(self, grasp_rotation, grasp_position, closed_on_object,
                                 lambda: bool(lifted_in_hand()), hand_touches)
         lifted = lifted_in_hand()
         outcome["closed_on"] = closed_on[0] if closed_on else -1
+        outcome["touched_first"] = touched_first[0] if touched_first else -1
         outcome["grasped"] = lifted[0] if lifted and outcome["success"] else -1
         outcome["lifted_together"] = len(lifted)
         return outcome
