@@ -365,6 +365,52 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
     EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
 }
 
+TEST(FusedGrasp, GraspsWhoseOpenHandLandsOnALyingCansHiddenSideRankLast)
+{
+  // The can of the test above (radius 3.4 cm along y, axis 3.4 cm up), two top-down grasps
+  // closing across it with the fingertips 4 mm past the axis (centre 5 cm up; the palm then
+  // clears the top by 2 mm). The first is 1.5 cm off the axis across it: its far finger's inner
+  // face, 4.25 cm from the centre, comes down 2.75 cm from the axis, 6.5 mm into the can's
+  // far side, which the camera never saw. The second is centred over the axis.
+  const ObjectView view = lyingCanView(0.034, 0.10, 0.003);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspCandidate offset;
+  offset.pose = makeGraspPose(Eigen::Vector3d(0.015, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  offset.width_m = 0.068;
+  GraspCandidate centred = offset;
+  centred.pose.translation().x() = 0.0;
+
+  const auto plan = [&](double max_open_hand_depth_m) {
+    FusedParams p = noCandidatesOfItsOwn();
+    p.max_pooled_points = 0;
+    p.lying_cylinder.enabled = true;
+    p.lying_cylinder.max_median_residual_frac = 0.18;
+    p.lying_cylinder.max_median_normal_angle_rad = 0.22;
+    p.lying_cylinder.max_open_hand_depth_m = max_open_hand_depth_m;
+    std::vector<std::unique_ptr<GraspPlanner>> planners;
+    planners.push_back(std::make_unique<FixedGraspPlanner>(offset));
+    planners.push_back(std::make_unique<FixedGraspPlanner>(centred));
+    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+  };
+  const GraspResult off = plan(std::numeric_limits<double>::infinity());
+  ASSERT_TRUE(off.ok()) << off.message;
+  ASSERT_EQ(off.grasps.size(), 2u);
+  EXPECT_NEAR(off.grasps.front().position().x(), 0.015, 1e-9) << "pool order without the check";
+  const GraspResult on = plan(0.003);
+  ASSERT_TRUE(on.ok()) << on.message;
+  ASSERT_EQ(on.grasps.size(), 2u) << "the offset grasp is kept, as a last resort";
+  EXPECT_NEAR(on.grasps.front().position().x(), 0.0, 1e-9);
+  EXPECT_NEAR(on.grasps.back().position().x(), 0.015, 1e-9);
+  EXPECT_NE(on.message.find("open hand onto its hidden side, ranked last: 1"), std::string::npos) << on.message;
+
+  const FusedParams read = fusedParamsFromYaml(
+      YAML::Load("{lying_cylinder: {max_open_hand_depth_m: 0.002, open_hand_approach_m: 0.05}}"));
+  EXPECT_EQ(read.lying_cylinder.max_open_hand_depth_m, 0.002);
+  EXPECT_EQ(read.lying_cylinder.open_hand_approach_m, 0.05);
+  for (const char* bad : { "{lying_cylinder: {max_open_hand_depth_m: -0.001}}", "{lying_cylinder: {open_hand_approach_m: 3}}" })
+    EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
+}
+
 TEST(FusedGrasp, EndGraspsCloseAcrossALyingCansDiameterAtItsEquator)
 {
   // A can (radius 3.3 cm, 12 cm long: longer than the 85 mm opening) lying along y, seen from

@@ -141,6 +141,75 @@ TEST(LyingCylinder, FingertipReachIsMeasuredAlongTheApproachInTheCrossSection)
   EXPECT_FALSE(fingertipReachPastAxis(top, gripper, LyingCylinder{}).has_value());
 }
 
+TEST(LyingCylinder, TheOpenHandsDepthInTheCylinderIsTheRadiusLessItsLeastDistanceFromTheAxis)
+{
+  // A soup can along y (radius 3.3 cm, axis 3.3 cm up, 10 cm long), given, not fitted: every
+  // expectation below is the gripper's box geometry worked out by hand.
+  LyingCylinder can;
+  can.found = true;
+  can.axis = Eigen::Vector3f::UnitY();
+  can.axis_point = Eigen::Vector3f(0.0f, 0.0f, 0.033f);
+  can.radius_m = 0.033f;
+  can.half_length_m = 0.05f;
+  GripperModel gripper = synthetic::robotiqLikeGripper();
+  gripper.finger_depth_m = 0.04;
+  gripper.finger_thickness_m = 0.012;
+  gripper.palm_thickness_m = 0.09;
+  gripper.palm_width_m = 0.044;
+  const double opening = 0.085, approach_m = 0.1;
+
+  // Top-down across the axis, centred over it, the palm 1 mm above the can (centre 4.7 cm
+  // up, the palm 2 cm above the centre): the palm is the nearest part, 3.4 cm from the axis;
+  // the fingers' inner faces are 4.25 cm from it.
+  GraspCandidate centred;
+  centred.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.047), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  const auto clear = openHandDepthInCylinder(centred, gripper, can, opening, approach_m);
+  ASSERT_TRUE(clear.has_value());
+  EXPECT_NEAR(*clear, 0.033 - 0.034, 1e-5);
+
+  // 1.5 cm off the axis across it: the far finger's inner face is 2.75 cm from the axis, at
+  // the axis's height, so 5.5 mm inside the can.
+  GraspCandidate offset = centred;
+  offset.pose.translation().x() = 0.015;
+  const auto into = openHandDepthInCylinder(offset, gripper, can, opening, approach_m);
+  ASSERT_TRUE(into.has_value());
+  EXPECT_NEAR(*into, 0.033 - 0.0275, 1e-5);
+  // Opened only to 11.5 cm the same hand clears it again (the face 4.25 cm from the axis).
+  EXPECT_NEAR(*openHandDepthInCylinder(offset, gripper, can, 0.115, approach_m), 0.033 - 0.034, 1e-5);
+
+  // Beside the can's end (the hand's 4.4 cm palm spans y 5.8 .. 10.2 cm, the can ends at
+  // 5 cm): no box is over the can.
+  GraspCandidate beyond = offset;
+  beyond.pose.translation().y() = 0.08;
+  const auto nothing = openHandDepthInCylinder(beyond, gripper, can, opening, approach_m);
+  ASSERT_TRUE(nothing.has_value());
+  EXPECT_LT(*nothing, -1.0f);
+
+  // The swept approach counts: a hand coming in sideways (+x) at the axis's height, closing
+  // vertically, stopped 1 cm short of the can with its fingertips: nothing inside. Swept back
+  // along -x it never comes nearer.
+  GraspCandidate side;
+  side.pose = makeGraspPose(Eigen::Vector3d(-0.033 - 0.01 - 0.02, 0.0, 0.033), Eigen::Vector3d(1, 0, 0),
+                            Eigen::Vector3d(0, 0, 1));
+  const auto side_depth = openHandDepthInCylinder(side, gripper, can, opening, approach_m);
+  ASSERT_TRUE(side_depth.has_value());
+  EXPECT_LT(*side_depth, 0.0f);
+  // The same fingers' place reached from the other side (approach -x): the palm behind them
+  // is then where the can is, and the hand comes through it.
+  GraspCandidate through;
+  through.pose = makeGraspPose(Eigen::Vector3d(-0.033 - 0.01 - 0.02, 0.0, 0.033), Eigen::Vector3d(-1, 0, 0),
+                               Eigen::Vector3d(0, 0, 1));
+  const auto through_depth = openHandDepthInCylinder(through, gripper, can, opening, approach_m);
+  ASSERT_TRUE(through_depth.has_value());
+  EXPECT_NEAR(*through_depth, 0.033, 1e-5);  // the palm box contains the axis
+
+  // End-on grasps and no cylinder: not across an axis.
+  GraspCandidate end_on;
+  end_on.pose = makeGraspPose(Eigen::Vector3d(0.0, -0.08, 0.033), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 0, 0));
+  EXPECT_FALSE(openHandDepthInCylinder(end_on, gripper, can, opening, approach_m).has_value());
+  EXPECT_FALSE(openHandDepthInCylinder(centred, gripper, LyingCylinder{}, opening, approach_m).has_value());
+}
+
 TEST(LyingCylinder, ParametersAreValidated)
 {
   EXPECT_EQ(enabled().validate(), "");
@@ -155,6 +224,12 @@ TEST(LyingCylinder, ParametersAreValidated)
   EXPECT_NE(p.validate(), "");
   p = enabled();
   p.min_points = 2;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.max_open_hand_depth_m = -0.001;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.open_hand_approach_m = 2.0;
   EXPECT_NE(p.validate(), "");
   p = enabled();
   p.max_normal_spread_ratio = 0.0;

@@ -457,7 +457,9 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   // short of a lying round object's axis, rank after every other candidate (kept: with nothing
   // else they are still a grasp).
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
-  std::size_t below_centre_of_mass = 0, short_of_axis = 0;
+  std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
+  const double approach_opening_m =
+      params_.gripper_fit.approach_opening_m > 0.0 ? params_.gripper_fit.approach_opening_m : gripper.max_opening_m;
   for (auto& g : pool)
   {
     if (closesBelowCentreOfMass(g.grasp, extent, params_))
@@ -471,12 +473,22 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       g.demoted = true;
       ++short_of_axis;
     }
+    else if (const auto depth = std::isfinite(params_.lying_cylinder.max_open_hand_depth_m)
+                                    ? openHandDepthInCylinder(g.grasp, gripper, lying, approach_opening_m,
+                                                              params_.lying_cylinder.open_hand_approach_m)
+                                    : std::nullopt;
+             depth && *depth > static_cast<float>(params_.lying_cylinder.max_open_hand_depth_m))
+    {
+      g.demoted = true;
+      ++onto_hidden_side;
+    }
   }
   if (below_centre_of_mass > 0)
     summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";
   if (lying.found)
     summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
-            << " mm), fingertips short of its axis, ranked last: " << short_of_axis << "; ";
+            << " mm), fingertips short of its axis, ranked last: " << short_of_axis
+            << "; open hand onto its hidden side, ranked last: " << onto_hidden_side << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
   });

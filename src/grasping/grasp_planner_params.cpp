@@ -344,6 +344,8 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     lying.readNonNegative("max_median_normal_angle_rad", p.lying_cylinder.max_median_normal_angle_rad);
     lying.readCount("min_points", p.lying_cylinder.min_points, 3);
     lying.read("min_fingertip_reach_m", p.lying_cylinder.min_fingertip_reach_m);
+    lying.read("max_open_hand_depth_m", p.lying_cylinder.max_open_hand_depth_m);
+    lying.read("open_hand_approach_m", p.lying_cylinder.open_hand_approach_m);
     lying.rejectUnknownKeys();
   }
   SectionReader model(reader.child("model"), "fused/model");

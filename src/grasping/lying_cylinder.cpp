@@ -1,5 +1,7 @@
 #include "fast_grasp/grasping/lying_cylinder.h"
 
+#include "fast_grasp/grasping/gripper_volume.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -171,6 +173,10 @@ std::string LyingCylinderParams::validate() const
     why << "lying_cylinder min_points must be >= 3; ";
   if (!(std::abs(min_fingertip_reach_m) <= 0.1))
     why << "lying_cylinder min_fingertip_reach_m must be in [-0.1, 0.1] m; ";
+  if (!(max_open_hand_depth_m >= 0.0))
+    why << "lying_cylinder max_open_hand_depth_m must be >= 0 (.inf: no check); ";
+  if (!(open_hand_approach_m >= 0.0 && open_hand_approach_m <= 1.0))
+    why << "lying_cylinder open_hand_approach_m must be in [0, 1] m; ";
   return why.str();
 }
 
@@ -216,6 +222,7 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
   out.axis = best.axis;
   out.axis_point = best.axis_point;
   out.radius_m = radius;
+  out.half_length_m = 0.5f * best.length_m;
   out.median_residual_m = best.median_residual_m;
   out.median_normal_angle_rad = best.median_normal_angle_rad;
   out.normal_spread_ratio = best.normal_spread_ratio;
@@ -237,16 +244,96 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
   return out;
 }
 
+namespace
+{
+/// fingertipReachPastAxis's condition: the grasp closes across the axis, not end-on.
+bool closesAcrossAxis(const GraspCandidate& grasp, const LyingCylinder& cylinder)
+{
+  const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>().normalized();
+  const Eigen::Vector3f closing = grasp.pose.linear().col(1).cast<float>().normalized();
+  return cylinder.found && std::abs(closing.dot(cylinder.axis)) <= 0.5f &&
+         std::abs(approach.dot(cylinder.axis)) <= std::cos(static_cast<float>(M_PI) / 4.0f);
+}
+
+
+/// Distance from the origin to the convex hull of `points` (0 when inside).
+float distanceToHull(std::vector<Eigen::Vector2f> points)
+{
+  // Andrew's monotone chain, then the origin against each edge.
+  std::sort(points.begin(), points.end(),
+            [](const Eigen::Vector2f& a, const Eigen::Vector2f& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  const auto cross = [](const Eigen::Vector2f& o, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  std::vector<Eigen::Vector2f> hull(2 * points.size());
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0.0f)
+      --k;
+    hull[k++] = points[i];
+  }
+  for (std::size_t i = points.size() - 1, lower = k + 1; i-- > 0;)
+  {
+    while (k >= lower && cross(hull[k - 2], hull[k - 1], points[i]) <= 0.0f)
+      --k;
+    hull[k++] = points[i];
+  }
+  hull.resize(k > 1 ? k - 1 : k);  // counter-clockwise, the first point not repeated
+  bool inside = hull.size() >= 3;
+  float least = std::numeric_limits<float>::infinity();
+  const Eigen::Vector2f origin = Eigen::Vector2f::Zero();
+  for (std::size_t i = 0; i < hull.size(); ++i)
+  {
+    const Eigen::Vector2f& a = hull[i];
+    const Eigen::Vector2f& b = hull[(i + 1) % hull.size()];
+    if (cross(a, b, origin) < 0.0f)
+      inside = false;
+    const Eigen::Vector2f ab = b - a;
+    const float t = ab.squaredNorm() > 0.0f ? std::clamp(-a.dot(ab) / ab.squaredNorm(), 0.0f, 1.0f) : 0.0f;
+    least = std::min(least, (a + t * ab).norm());
+  }
+  return inside ? 0.0f : least;
+}
+}  // namespace
+
+std::optional<float> openHandDepthInCylinder(const GraspCandidate& grasp, const GripperModel& gripper,
+                                             const LyingCylinder& cylinder, double opening_m, double approach_m)
+{
+  if (!closesAcrossAxis(grasp, cylinder))
+    return std::nullopt;
+  // Each box swept back along the approach is still a box; seen along the axis it is the
+  // convex hull of its 8 corners, and the cylinder's cross-section is a disc about the axis.
+  const Eigen::Matrix3f rotation = grasp.pose.linear().cast<float>();
+  const Eigen::Vector3f origin = grasp.pose.translation().cast<float>();
+  const Eigen::Vector3f u = cylinder.axis.unitOrthogonal(), v = cylinder.axis.cross(u);
+  float least = std::numeric_limits<float>::infinity();
+  for (GripperBox box : openGripperBoxes(gripper, opening_m))
+  {
+    box.min.x() -= static_cast<float>(approach_m);
+    std::vector<Eigen::Vector2f> section;
+    float along_lo = std::numeric_limits<float>::infinity(), along_hi = -along_lo;
+    for (int corner = 0; corner < 8; ++corner)
+    {
+      const Eigen::Vector3f q = origin + rotation * box.corner(corner) - cylinder.axis_point;
+      along_lo = std::min(along_lo, q.dot(cylinder.axis));
+      along_hi = std::max(along_hi, q.dot(cylinder.axis));
+      section.emplace_back(q.dot(u), q.dot(v));
+    }
+    if (along_hi < -cylinder.half_length_m || along_lo > cylinder.half_length_m)
+      continue;  // beside an end of the object, not over it
+    least = std::min(least, distanceToHull(std::move(section)));
+  }
+  return cylinder.radius_m - least;
+}
+
 std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const GripperModel& gripper,
                                             const LyingCylinder& cylinder)
 {
-  if (!cylinder.found)
+  if (!closesAcrossAxis(grasp, cylinder))
     return std::nullopt;
   const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>().normalized();
-  const Eigen::Vector3f closing = grasp.pose.linear().col(1).cast<float>().normalized();
   const Eigen::Vector3f& axis = cylinder.axis;
-  if (std::abs(closing.dot(axis)) > 0.5f || std::abs(approach.dot(axis)) > std::cos(static_cast<float>(M_PI) / 4.0f))
-    return std::nullopt;
   Eigen::Vector3f in_section = approach - approach.dot(axis) * axis;
   in_section.normalize();
   const Eigen::Vector3f tip =

@@ -47,8 +47,9 @@ struct FusedParams
   std::vector<double> side_high_fracs;
   double tall_side_min_height_frac = 0.6;
   /// A round object lying on the table (lying_cylinder.h): pooled grasps closing across its
-  /// axis whose fingertips fall short of it rank after every other candidate (kept as a last
-  /// resort, like the pendulum side grasps above).
+  /// axis whose fingertips fall short of it, or whose open hand on its way in would land on
+  /// its hidden far side (openHandDepthInCylinder), rank after every other candidate (kept as
+  /// a last resort, like the pendulum side grasps above).
   LyingCylinderParams lying_cylinder;
   /// End-on candidates: approach horizontally along the footprint's major axis from each end,
   /// the palm palm_clearance_m before the end, closing across what the fingers surround at the

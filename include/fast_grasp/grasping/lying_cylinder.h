@@ -21,6 +21,7 @@
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -49,6 +50,11 @@ struct LyingCylinderParams
   /// by less than this (negative: may stop that far short of it), measured along the approach
   /// in the cross-section, falls short of the axis.
   double min_fingertip_reach_m = 0.0;
+  /// A grasp closing across the axis whose open hand, on its way in from open_hand_approach_m
+  /// back along the approach, would reach deeper than this into the fitted cylinder
+  /// (openHandDepthInCylinder) lands on the object's hidden side before it closes.
+  double max_open_hand_depth_m = std::numeric_limits<double>::infinity();
+  double open_hand_approach_m = 0.1;
 
   std::string validate() const;
 };
@@ -59,6 +65,7 @@ struct LyingCylinder
   Eigen::Vector3f axis_point = Eigen::Vector3f::Zero();  // on the axis, at the seen points' middle along it
   Eigen::Vector3f axis = Eigen::Vector3f::UnitX();       // unit, horizontal
   float radius_m = 0.0f;
+  float half_length_m = 0.0f;            // half the seen points' span along the axis (about axis_point)
   float median_residual_m = 0.0f;        // median |distance from the axis - radius| of the seen points
   float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
   float normal_spread_ratio = 1.0f;      // least over most spread of the normals' horizontal parts
@@ -75,5 +82,16 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
 /// the axis, or its approach less than 45 deg from it: an end-on grasp) or nothing was found.
 std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const GripperModel& gripper,
                                             const LyingCylinder& cylinder);
+
+/// How deep the open hand of `grasp` (fingers open to `opening_m`, and the palm: the boxes of
+/// openGripperBoxes) reaches into `cylinder` at the grasp pose or anywhere on the straight
+/// approach from `approach_m` back along -approach: the radius minus the least distance of
+/// the hand from the axis (positive: inside), over the boxes whose span along the axis meets
+/// the seen length. Empty under fingertipReachPastAxis's conditions.
+/// Why: the gripper-volume check sees the seen points and a shadow, but a lying round
+/// object's far side is hidden and the fit knows where it is; a hand offset from the axis
+/// lands its far finger on it (training piles, session 21).
+std::optional<float> openHandDepthInCylinder(const GraspCandidate& grasp, const GripperModel& gripper,
+                                             const LyingCylinder& cylinder, double opening_m, double approach_m);
 
 }  // namespace fast_grasp
