@@ -260,6 +260,23 @@ private:
 };
 }  // namespace
 
+namespace
+{
+/// The fused planner over one fixed grasp per pooled planner, in this order, with no
+/// candidates of its own and every point seen: the lying-object rules alone reorder them.
+GraspResult planPooledOnLyingObject(const ObjectView& view, const GripperModel& gripper,
+                                    const std::vector<GraspCandidate>& grasps, const LyingCylinderParams& lying)
+{
+  FusedParams p = noCandidatesOfItsOwn();
+  p.max_pooled_points = 0;
+  p.lying_cylinder = lying;
+  std::vector<std::unique_ptr<GraspPlanner>> planners;
+  for (const GraspCandidate& grasp : grasps)
+    planners.push_back(std::make_unique<FixedGraspPlanner>(grasp));
+  return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+}
+}  // namespace
+
 TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
 {
   // A can (radius 2.5 cm, 15 cm long) lying along y on the table: its equator is 2.5 cm up,
@@ -326,15 +343,9 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
   from_above.width_m = 0.068;
 
   const auto plan = [&](bool lying_cylinder) {
-    FusedParams p = noCandidatesOfItsOwn();
-    p.max_pooled_points = 0;
-    p.lying_cylinder.enabled = lying_cylinder;
-    p.lying_cylinder.max_median_residual_frac = 0.18;
-    p.lying_cylinder.max_median_normal_angle_rad = 0.22;
-    std::vector<std::unique_ptr<GraspPlanner>> planners;
-    planners.push_back(std::make_unique<FixedGraspPlanner>(oblique));
-    planners.push_back(std::make_unique<FixedGraspPlanner>(from_above));
-    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+    LyingCylinderParams lying;
+    lying.enabled = lying_cylinder;
+    return planPooledOnLyingObject(view, gripper, { oblique, from_above }, lying);
   };
   const GraspResult off = plan(false);
   ASSERT_TRUE(off.ok()) << off.message;
@@ -381,16 +392,10 @@ TEST(FusedGrasp, GraspsWhoseOpenHandLandsOnALyingCansHiddenSideRankLast)
   centred.pose.translation().x() = 0.0;
 
   const auto plan = [&](double max_open_hand_depth_m) {
-    FusedParams p = noCandidatesOfItsOwn();
-    p.max_pooled_points = 0;
-    p.lying_cylinder.enabled = true;
-    p.lying_cylinder.max_median_residual_frac = 0.18;
-    p.lying_cylinder.max_median_normal_angle_rad = 0.22;
-    p.lying_cylinder.max_open_hand_depth_m = max_open_hand_depth_m;
-    std::vector<std::unique_ptr<GraspPlanner>> planners;
-    planners.push_back(std::make_unique<FixedGraspPlanner>(offset));
-    planners.push_back(std::make_unique<FixedGraspPlanner>(centred));
-    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+    LyingCylinderParams lying;
+    lying.enabled = true;
+    lying.max_open_hand_depth_m = max_open_hand_depth_m;
+    return planPooledOnLyingObject(view, gripper, { offset, centred }, lying);
   };
   const GraspResult off = plan(std::numeric_limits<double>::infinity());
   ASSERT_TRUE(off.ok()) << off.message;
