@@ -87,7 +87,8 @@ std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const G
 /// openGripperBoxes) reaches into `cylinder` at the grasp pose or anywhere on the straight
 /// approach from `approach_m` back along -approach: the radius minus the least distance of
 /// the hand from the axis (positive: inside), over the boxes whose span along the axis meets
-/// the seen length. Empty under fingertipReachPastAxis's conditions.
+/// the seen length (minus infinity when none does). Empty under fingertipReachPastAxis's
+/// conditions.
 /// Why: the gripper-volume check sees the seen points and a shadow, but a lying round
 /// object's far side is hidden and the fit knows where it is; a hand offset from the axis
 /// lands its far finger on it (training piles, session 21).
