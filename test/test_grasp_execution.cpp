@@ -240,14 +240,7 @@ TEST(GraspScene, TheTableIsABoxTopAtItsPlaneNotVoxelsAboveIt)
 // 6 cm deep. A top-down grasp closing across that depth puts its back finger past the box,
 // where the shadow still reaches: the grasp planner's hand check (exact points) allowed that,
 // so the arm planner must too, while nothing but the hand may enter the shadow.
-pcl::PointCloud<pcl::PointXYZ> boxFace()
-{
-  pcl::PointCloud<pcl::PointXYZ> face;
-  for (float y = -0.03f; y <= 0.03f + 1e-4f; y += 0.005f)
-    for (float z = 0.01f; z <= 0.12f + 1e-4f; z += 0.005f)
-      face.push_back(pcl::PointXYZ(0.50f, y, z));
-  return face;
-}
+/// Points every 5 mm filling the box from `lo` to `hi` (a face when one side is 0).
 pcl::PointCloud<pcl::PointXYZ> slab(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi)
 {
   pcl::PointCloud<pcl::PointXYZ> points;
@@ -261,7 +254,7 @@ pcl::PointCloud<pcl::PointXYZ> slab(const Eigen::Vector3f& lo, const Eigen::Vect
 TEST(GraspScene, TheHandMayEnterTheUnseenPartTheRestOfTheArmMayNot)
 {
   Scene s;
-  const pcl::PointCloud<pcl::PointXYZ> face = boxFace();
+  const pcl::PointCloud<pcl::PointXYZ> face = slab({ 0.50f, -0.03f, 0.01f }, { 0.50f, 0.03f, 0.12f });
   const pcl::PointCloud<pcl::PointXYZ> shadow = slab({ 0.505f, -0.03f, 0.01f }, { 0.60f, 0.03f, 0.12f });
   GraspSceneClouds clouds;
   clouds.object = &face;

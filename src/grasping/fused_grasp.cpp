@@ -473,11 +473,9 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       g.demoted = true;
       ++short_of_axis;
     }
-    else if (const auto depth = std::isfinite(params_.lying_cylinder.max_open_hand_depth_m)
-                                    ? openHandDepthInCylinder(g.grasp, gripper, lying, approach_opening_m,
-                                                              params_.lying_cylinder.open_hand_approach_m)
-                                    : std::nullopt;
-             depth && *depth > static_cast<float>(params_.lying_cylinder.max_open_hand_depth_m))
+    else if (const auto depth = openHandDepthInCylinder(g.grasp, gripper, lying, approach_opening_m,
+                                                        params_.lying_cylinder.open_hand_approach_m);
+             depth && *depth > static_cast<float>(params_.lying_cylinder.max_open_hand_depth_m))  // .inf: never
     {
       g.demoted = true;
       ++onto_hidden_side;
