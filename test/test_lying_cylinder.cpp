@@ -1,11 +1,14 @@
-// The lying round object fit and the fingertips' reach past its axis, on analytic shapes whose
-// axis, radius and reach follow from their construction.
+// The lying round object fit, the fingertips' reach past its axis and the hold check that drops
+// grasps by them, on analytic shapes whose axis, radius and reach follow from their construction.
 #include "fast_grasp/grasping/lying_cylinder.h"
 
 #include "fast_grasp/grasping/grasp_features.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/grasping/hold_check.h"
 #include "synthetic_views.h"
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 
@@ -234,6 +237,134 @@ TEST(LyingCylinder, ParametersAreValidated)
   p = enabled();
   p.max_normal_spread_ratio = 0.0;
   EXPECT_NE(p.validate(), "");
+}
+
+}  // namespace fast_grasp
+
+namespace fast_grasp
+{
+namespace
+{
+/// A planner that returns what it was given: the grasps a thesis planner would have returned.
+class GivenGrasps : public GraspPlanner
+{
+public:
+  explicit GivenGrasps(GraspResult result) : result_(std::move(result)) {}
+  GraspResult plan(const ObjectView&, const GripperModel&) const override { return result_; }
+  const char* name() const override { return "concavity"; }
+
+private:
+  GraspResult result_;
+};
+
+GraspCandidate graspAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& approach, const Eigen::Vector3d& closing,
+                       double score)
+{
+  GraspCandidate grasp;
+  grasp.pose = makeGraspPose(centre, approach, closing);
+  grasp.width_m = 0.07;
+  grasp.score = score;
+  return grasp;
+}
+
+HoldCheckParams holdCheck()
+{
+  HoldCheckParams p;
+  p.lying_cylinder = enabled();
+  p.lying_cylinder.min_fingertip_reach_m = 0.002;
+  p.lying_cylinder.max_open_hand_depth_m = 0.003;
+  return p;
+}
+}  // namespace
+
+TEST(HoldCheck, GraspsThatWouldDropALyingCanAreDroppedTheRestKeepTheirOrder)
+{
+  // The can of FingertipReachIsMeasuredAlongTheApproachInTheCrossSection: along y, radius
+  // 3.4 cm, axis 3.4 cm up; the fingers 4 cm deep, so the tips are 2 cm beyond the centre.
+  const ObjectView view = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const Eigen::Vector3d down(0, 0, -1), across(1, 0, 0);
+  GraspResult given;
+  // centred over the axis, the tips at 3 cm: 4 mm past it (kept)
+  given.grasps.push_back(graspAt({ 0.0, 0.01, 0.05 }, down, across, 0.9));
+  // the same 1 cm higher: the tips 6 mm short of the axis (dropped)
+  given.grasps.push_back(graspAt({ 0.0, 0.01, 0.06 }, down, across, 0.8));
+  // end-on, closing across the diameter at the axis's height: not across the axis (kept)
+  given.grasps.push_back(graspAt({ 0.0, -0.06, 0.034 }, { 0, 1, 0 }, across, 0.7));
+  // 1.5 cm off the axis: the tips pass it, but the far finger's inner face (4.25 cm from the
+  // hand's centre line when open) comes 2.75 cm from the axis, 6.5 mm inside the can (dropped)
+  given.grasps.push_back(graspAt({ 0.015, 0.01, 0.05 }, down, across, 0.6));
+  const HoldCheckedPlanner checked(std::make_unique<GivenGrasps>(given), holdCheck());
+  EXPECT_STREQ(checked.name(), "concavity");
+  const GraspResult result = checked.plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  ASSERT_EQ(result.grasps.size(), 2u) << result.message;
+  EXPECT_DOUBLE_EQ(result.grasps[0].score, 0.9);
+  EXPECT_DOUBLE_EQ(result.grasps[1].score, 0.7);
+  EXPECT_NE(result.message.find("dropped 1 grasps whose fingertips stop short of its axis"), std::string::npos)
+      << result.message;
+  EXPECT_NE(result.message.find("and 1 whose open hand lands on its hidden side"), std::string::npos) << result.message;
+}
+
+TEST(HoldCheck, WhenEveryGraspWouldDropTheCanThePlannerSaysWhyAndKeepsItsNextView)
+{
+  const ObjectView view = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  GraspResult given;
+  given.grasps.push_back(graspAt({ 0.0, 0.01, 0.06 }, { 0, 0, -1 }, { 1, 0, 0 }, 0.8));
+  given.message = "concavity: 1 grasp";
+  given.next_view = Eigen::Isometry3d(Eigen::Translation3d(0.1, 0.2, 0.3));
+  const HoldCheckedPlanner checked(std::make_unique<GivenGrasps>(given), holdCheck());
+  const GraspResult result = checked.plan(view, synthetic::robotiqLikeGripper());
+  EXPECT_FALSE(result.ok());
+  EXPECT_EQ(result.failure, GraspFailure::NoStableGrasp);
+  EXPECT_NE(result.message.find("lying round object (radius 34 mm)"), std::string::npos) << result.message;
+  EXPECT_NE(result.message.find("none left (concavity: 1 grasp)"), std::string::npos) << result.message;
+  ASSERT_TRUE(result.next_view.has_value());
+  EXPECT_TRUE(result.next_view->translation().isApprox(Eigen::Vector3d(0.1, 0.2, 0.3)));
+}
+
+TEST(HoldCheck, GraspsOnAStandingCanOrWithTheCheckOffAreReturnedAsPlanned)
+{
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspResult given;
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.09 }, { 0, 0, -1 }, { 1, 0, 0 }, 0.8));
+  // A standing can (axis vertical): no lying round object, the same grasp comes back.
+  const ObjectView standing = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.05 }, { 0, 0, 1 }, 0.034, 0.10));
+  const GraspResult kept = HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), holdCheck()).plan(standing, gripper);
+  ASSERT_EQ(kept.grasps.size(), 1u) << kept.message;
+  // The lying can with the fit disabled: nothing is judged.
+  const ObjectView lying = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  given.grasps.front().pose.translation() = Eigen::Vector3d(0.0, 0.01, 0.06);  // short of the axis
+  HoldCheckParams off = holdCheck();
+  off.lying_cylinder.enabled = false;
+  EXPECT_EQ(HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), off).plan(lying, gripper).grasps.size(), 1u);
+}
+
+TEST(HoldCheck, TheShippedConfigChecksEveryThesisPlannerButNotFusedsPool)
+{
+  const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  EXPECT_EQ(config.hold_checked_planners, (std::vector<std::string>{ "principal_axis", "cshape", "boundary", "concavity" }));
+  for (const std::string& name : config.hold_checked_planners)
+  {
+    const auto planner = makeGraspPlanner(name, config);
+    EXPECT_NE(dynamic_cast<const HoldCheckedPlanner*>(planner.get()), nullptr) << name;
+    EXPECT_EQ(planner->name(), name);
+  }
+  GraspPlannerConfig unchecked = config;
+  unchecked.hold_checked_planners.clear();
+  EXPECT_EQ(dynamic_cast<const HoldCheckedPlanner*>(makeGraspPlanner("cshape", unchecked).get()), nullptr);
+  // The fused planner pools the planners unchecked (it ranks those grasps last itself): on a
+  // lying can its grasps are the same with and without the check.
+  const ObjectView lying = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  const GraspResult fused = makeGraspPlanner("fused", config)->plan(lying, synthetic::robotiqLikeGripper());
+  const GraspResult fused_unchecked = makeGraspPlanner("fused", unchecked)->plan(lying, synthetic::robotiqLikeGripper());
+  ASSERT_TRUE(fused.ok()) << fused.message;
+  ASSERT_EQ(fused.grasps.size(), fused_unchecked.grasps.size());
+  for (std::size_t i = 0; i < fused.grasps.size(); ++i)
+    EXPECT_TRUE(fused.grasps[i].pose.isApprox(fused_unchecked.grasps[i].pose)) << i;
+  EXPECT_NE(fused.message.find("fingertips short of its axis, ranked last"), std::string::npos) << fused.message;
+  EXPECT_THROW(holdCheckedPlannersFromYaml(YAML::Load("planners: [cshape, fused]")), std::runtime_error);
+  EXPECT_THROW(holdCheckedPlannersFromYaml(YAML::Load("planers: [cshape]")), std::runtime_error);
 }
 
 }  // namespace fast_grasp

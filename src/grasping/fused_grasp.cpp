@@ -467,19 +467,21 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       g.demoted = true;
       ++below_centre_of_mass;
     }
-    else if (const auto reach = fingertipReachPastAxis(g.grasp, gripper, lying);
-             reach && *reach < static_cast<float>(params_.lying_cylinder.min_fingertip_reach_m))
-    {
-      g.demoted = true;
-      ++short_of_axis;
-    }
-    else if (const auto depth = openHandDepthInCylinder(g.grasp, gripper, lying, approach_opening_m,
-                                                        params_.lying_cylinder.open_hand_approach_m);
-             depth && *depth > static_cast<float>(params_.lying_cylinder.max_open_hand_depth_m))  // .inf: never
-    {
-      g.demoted = true;
-      ++onto_hidden_side;
-    }
+    else
+      switch (judgeGraspAcrossCylinder(g.grasp, gripper, lying, params_.lying_cylinder, approach_opening_m))
+      {
+        case GraspAcrossCylinder::ShortOfAxis:
+          g.demoted = true;
+          ++short_of_axis;
+          break;
+        case GraspAcrossCylinder::OntoHiddenSide:
+          g.demoted = true;
+          ++onto_hidden_side;
+          break;
+        case GraspAcrossCylinder::NotAcross:
+        case GraspAcrossCylinder::Holds:
+          break;
+      }
   }
   if (below_centre_of_mass > 0)
     summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";

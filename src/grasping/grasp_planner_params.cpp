@@ -392,6 +392,18 @@ TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+std::vector<std::string> holdCheckedPlannersFromYaml(const YAML::Node& section)
+{
+  std::vector<std::string> planners;
+  SectionReader reader(section, "hold_check");
+  reader.read("planners", planners);
+  for (const std::string& name : planners)
+    if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
+      throw std::runtime_error("hold_check/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+  reader.rejectUnknownKeys();
+  return planners;
+}
+
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root)
 {
   PlannerInputLimits limits;
@@ -434,6 +446,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.concavity = concavityParamsFromYaml(root["concavity"]);
       config.fused = fusedParamsFromYaml(root["fused"]);
       config.table_grasps = tableGraspParamsFromYaml(root["table_grasps"]);
+      config.hold_checked_planners = holdCheckedPlannersFromYaml(root["hold_check"]);
       setInputLimits(config, plannerInputLimitsFromYaml(root));
     }
   }
@@ -450,7 +463,10 @@ const std::vector<std::string>& graspAlgorithmNames()
   return names;
 }
 
-std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
+namespace
+{
+/// The thesis planner named `algorithm`, without the hold check; nullptr for another name.
+std::unique_ptr<GraspPlanner> makeThesisPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
 {
   if (algorithm == "principal_axis")
     return std::make_unique<PrincipalAxisGraspPlanner>(config.principal_axis);
@@ -460,6 +476,22 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     return std::make_unique<BoundaryGraspPlanner>(config.boundary);
   if (algorithm == "concavity")
     return std::make_unique<ConcavityGraspPlanner>(config.concavity);
+  return nullptr;
+}
+}  // namespace
+
+std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
+{
+  if (auto planner = makeThesisPlanner(algorithm, config))
+  {
+    const auto& checked = config.hold_checked_planners;
+    if (std::find(checked.begin(), checked.end(), algorithm) == checked.end())
+      return planner;
+    HoldCheckParams hold;
+    hold.lying_cylinder = config.fused.lying_cylinder;
+    hold.approach_opening_m = config.fused.gripper_fit.approach_opening_m;
+    return std::make_unique<HoldCheckedPlanner>(std::move(planner), hold);
+  }
   if (algorithm == "fused")
   {
     // Each pooled planner with its own section, but its max_grasps from fused/pooled_max_grasps
@@ -479,7 +511,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     std::vector<std::unique_ptr<GraspPlanner>> pooled;
     for (const std::string& name : config.fused.planners)
       if (name != "fused")  // fusedParamsFromYaml rejects it; never recurse
-        if (auto planner = makeGraspPlanner(name, pooled_config))
+        if (auto planner = makeThesisPlanner(name, pooled_config))  // unchecked: fused ranks them itself
           pooled.push_back(std::move(planner));
     return std::make_unique<FusedGraspPlanner>(std::move(pooled), config.fused);
   }

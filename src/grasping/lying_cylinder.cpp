@@ -344,4 +344,19 @@ std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const G
   return in_section.dot(from_axis);
 }
 
+GraspAcrossCylinder judgeGraspAcrossCylinder(const GraspCandidate& grasp, const GripperModel& gripper,
+                                             const LyingCylinder& cylinder, const LyingCylinderParams& params,
+                                             double opening_m)
+{
+  const auto reach = fingertipReachPastAxis(grasp, gripper, cylinder);
+  if (!reach)
+    return GraspAcrossCylinder::NotAcross;
+  if (*reach < static_cast<float>(params.min_fingertip_reach_m))
+    return GraspAcrossCylinder::ShortOfAxis;
+  const auto depth = openHandDepthInCylinder(grasp, gripper, cylinder, opening_m, params.open_hand_approach_m);
+  if (depth && *depth > static_cast<float>(params.max_open_hand_depth_m))  // .inf: never
+    return GraspAcrossCylinder::OntoHiddenSide;
+  return GraspAcrossCylinder::Holds;
+}
+
 }  // namespace fast_grasp

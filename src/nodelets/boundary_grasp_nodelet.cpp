@@ -1,8 +1,6 @@
 // fast_grasp/BoundaryGrasp: thesis Ch4 boundary (caging) planner behind the shared grasp-planner wrapper.
-#include "fast_grasp/grasping/boundary_grasp.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
-#include "fast_grasp/nodelets/xmlrpc_yaml.h"
 
 #include <pluginlib/class_list_macros.hpp>
 
@@ -13,10 +11,8 @@ class BoundaryGraspNodelet : public GraspPlannerNodelet
 protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
-    // ~boundary/* (config/grasp_planners.yaml); throws naming a bad key or value.
-    BoundaryParams params = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
-    params.input_limits = inputLimits(private_nh);
-    return std::make_unique<BoundaryGraspPlanner>(params);
+    // ~boundary/* and the sections it shares (config/grasp_planners.yaml); throws naming a bad key.
+    return makeGraspPlanner("boundary", plannerConfig(private_nh));
   }
 };
 

@@ -1,8 +1,6 @@
 // fast_grasp/ConcavityGrasp: thesis Ch5 concavity planner behind the shared grasp-planner wrapper.
-#include "fast_grasp/grasping/concavity_grasp.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
-#include "fast_grasp/nodelets/xmlrpc_yaml.h"
 
 #include <pluginlib/class_list_macros.hpp>
 
@@ -13,10 +11,8 @@ class ConcavityGraspNodelet : public GraspPlannerNodelet
 protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
-    // ~concavity/* (config/grasp_planners.yaml); throws naming a bad key or value.
-    ConcavityParams params = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
-    params.input_limits = inputLimits(private_nh);
-    return std::make_unique<ConcavityGraspPlanner>(params);
+    // ~concavity/* and the sections it shares (config/grasp_planners.yaml); throws naming a bad key.
+    return makeGraspPlanner("concavity", plannerConfig(private_nh));
   }
 };
 

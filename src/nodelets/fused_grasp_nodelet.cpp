@@ -4,7 +4,6 @@
 // pooled principal-axis planner suggests one and nothing in the pool fits.
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/nodelets/grasp_planner_nodelet.h"
-#include "fast_grasp/nodelets/xmlrpc_yaml.h"
 
 #include <pluginlib/class_list_macros.hpp>
 
@@ -15,15 +14,8 @@ class FusedGraspNodelet : public GraspPlannerNodelet
 protected:
   std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) override
   {
-    // Each section read as the single-planner nodelets read it; throws naming a bad key.
-    GraspPlannerConfig config;
-    config.principal_axis = principalAxisParamsFromYaml(paramAsYaml(private_nh, "principal_axis"));
-    config.cshape = cshapeParamsFromYaml(paramAsYaml(private_nh, "cshape"));
-    config.boundary = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
-    config.concavity = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
-    config.fused = fusedParamsFromYaml(paramAsYaml(private_nh, "fused"));
-    setInputLimits(config, inputLimits(private_nh));
-    return makeGraspPlanner("fused", config);
+    // ~fused/* and the sections it shares (config/grasp_planners.yaml); throws naming a bad key.
+    return makeGraspPlanner("fused", plannerConfig(private_nh));
   }
 };
 

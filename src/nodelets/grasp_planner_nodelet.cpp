@@ -74,12 +74,20 @@ visualization_msgs::Marker boxInGraspFrame(const GraspCandidate& grasp, const Ei
 }
 }  // namespace
 
-PlannerInputLimits GraspPlannerNodelet::inputLimits(const ros::NodeHandle& private_nh)
+GraspPlannerConfig GraspPlannerNodelet::plannerConfig(const ros::NodeHandle& private_nh)
 {
+  GraspPlannerConfig config;
+  config.principal_axis = principalAxisParamsFromYaml(paramAsYaml(private_nh, "principal_axis"));
+  config.cshape = cshapeParamsFromYaml(paramAsYaml(private_nh, "cshape"));
+  config.boundary = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
+  config.concavity = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
+  config.fused = fusedParamsFromYaml(paramAsYaml(private_nh, "fused"));
+  config.hold_checked_planners = holdCheckedPlannersFromYaml(paramAsYaml(private_nh, "hold_check"));
   YAML::Node top_level(YAML::NodeType::Map);
   if (private_nh.hasParam("max_object_extent_m"))
     top_level["max_object_extent_m"] = paramAsYaml(private_nh, "max_object_extent_m");
-  return plannerInputLimitsFromYaml(top_level);
+  setInputLimits(config, plannerInputLimitsFromYaml(top_level));
+  return config;
 }
 
 GraspPlannerNodelet::~GraspPlannerNodelet()

@@ -7,6 +7,7 @@
 #include "fast_grasp/grasping/concavity_grasp.h"
 #include "fast_grasp/grasping/cshape_grasp.h"
 #include "fast_grasp/grasping/fused_grasp.h"
+#include "fast_grasp/grasping/hold_check.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 #include "fast_grasp/grasping/table_grasps.h"
 
@@ -47,6 +48,11 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section);
 /// the others.
 TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section);
 
+/// Reads the top-level `hold_check:` section: `planners`, the thesis planners (principal_axis,
+/// cshape, boundary, concavity) whose grasps pass the hold check (hold_check.h) before they are
+/// returned. Throws std::runtime_error on another name or an unknown key.
+std::vector<std::string> holdCheckedPlannersFromYaml(const YAML::Node& section);
+
 /// The top-level `max_object_extent_m` of grasp_planners.yaml (the root map; a missing key keeps
 /// the default). Throws std::runtime_error on a non-positive or unreadable value.
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root);
@@ -60,13 +66,16 @@ struct GraspPlannerConfig
   ConcavityParams concavity;
   FusedParams fused;
   TableGraspParams table_grasps;  // used when every object of a table is planned
+  /// Thesis planners wrapped in HoldCheckedPlanner by makeGraspPlanner (the check's values are
+  /// fused.lying_cylinder's); never the fused planner's pooled ones, which it ranks itself.
+  std::vector<std::string> hold_checked_planners;
 };
 
 /// Gives every planner of `config` the same input limits.
 void setInputLimits(GraspPlannerConfig& config, const PlannerInputLimits& limits);
 
 /// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:`, `concavity:` and
-/// `fused:` sections (any may be absent: defaults) and the top-level `max_object_extent_m`
+/// `fused:` sections (any may be absent: defaults), `hold_check:` and the top-level `max_object_extent_m`
 /// (every planner's input_limits). The other top-level keys are the nodelets' shared settings
 /// and are ignored here. Throws std::runtime_error with the file name on a missing or
 /// unparsable file and on any error of the two functions above.

@@ -95,4 +95,20 @@ std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const G
 std::optional<float> openHandDepthInCylinder(const GraspCandidate& grasp, const GripperModel& gripper,
                                              const LyingCylinder& cylinder, double opening_m, double approach_m);
 
+/// What a lying round object does to a grasp (LyingCylinderParams' two tests, in this order).
+enum class GraspAcrossCylinder
+{
+  NotAcross,       // nothing found, or the grasp does not close across the axis (end-on, along it)
+  Holds,           // passes both tests
+  ShortOfAxis,     // fingertips pass the axis by less than min_fingertip_reach_m
+  OntoHiddenSide,  // the open hand reaches deeper than max_open_hand_depth_m into the cylinder
+};
+
+/// Judges `grasp` against `cylinder` with `params`' two thresholds; the open hand is open to
+/// `opening_m` on its way in. The fused planner ranks ShortOfAxis and OntoHiddenSide grasps
+/// last, the hold check (hold_check.h) drops them.
+GraspAcrossCylinder judgeGraspAcrossCylinder(const GraspCandidate& grasp, const GripperModel& gripper,
+                                             const LyingCylinder& cylinder, const LyingCylinderParams& params,
+                                             double opening_m);
+
 }  // namespace fast_grasp

@@ -7,6 +7,7 @@
 #include "fast_grasp/SegmentedScene.h"
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/core/gripper_model.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/table_grasps.h"
 #include "fast_grasp/perception/normal_estimation.h"
@@ -45,9 +46,11 @@ protected:
   /// Builds the algorithm from the private parameters (called once, in onInit).
   virtual std::unique_ptr<GraspPlanner> makePlanner(ros::NodeHandle& private_nh) = 0;
   ros::NodeHandle& privateHandle() { return private_nh_; }
-  /// ~max_object_extent_m (the top level of config/grasp_planners.yaml), read as
-  /// loadGraspPlannerConfig reads it; throws std::runtime_error on a bad value.
-  static PlannerInputLimits inputLimits(const ros::NodeHandle& private_nh);
+  /// Every section of config/grasp_planners.yaml under the private namespace (~cshape/*,
+  /// ~fused/*, ~hold_check/*, ~max_object_extent_m, ...), read as loadGraspPlannerConfig reads
+  /// the file (a missing section: its defaults), for makeGraspPlanner. Throws
+  /// std::runtime_error naming a bad key or value.
+  static GraspPlannerConfig plannerConfig(const ros::NodeHandle& private_nh);
 
 private:
   void onInit() override;

@@ -1,0 +1,71 @@
+#include "fast_grasp/grasping/hold_check.h"
+
+#include "fast_grasp/grasping/grasp_features.h"
+
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+namespace fast_grasp
+{
+HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, HoldCheckParams params)
+  : planner_(std::move(planner)), params_(std::move(params))
+{
+}
+
+GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
+{
+  GraspResult result = planner_->plan(view, gripper);
+  if (!result.ok() || !params_.lying_cylinder.enabled)
+    return result;
+  const Stopwatch watch;
+  const LyingCylinder lying = fitLyingCylinder(view, objectExtent(view), params_.lying_cylinder);
+  if (!lying.found)
+  {
+    result.compute_time_s += watch.elapsedSeconds();
+    return result;
+  }
+  const double opening_m = params_.approach_opening_m > 0.0 ? params_.approach_opening_m : gripper.max_opening_m;
+  std::vector<GraspCandidate> kept;
+  std::size_t short_of_axis = 0, onto_hidden_side = 0;
+  for (auto& grasp : result.grasps)
+    switch (judgeGraspAcrossCylinder(grasp, gripper, lying, params_.lying_cylinder, opening_m))
+    {
+      case GraspAcrossCylinder::ShortOfAxis:
+        ++short_of_axis;
+        break;
+      case GraspAcrossCylinder::OntoHiddenSide:
+        ++onto_hidden_side;
+        break;
+      case GraspAcrossCylinder::NotAcross:
+      case GraspAcrossCylinder::Holds:
+        kept.push_back(std::move(grasp));
+        break;
+    }
+  std::ostringstream why;
+  why << "lying round object (radius " << std::lround(1000.0f * lying.radius_m) << " mm): dropped "
+      << short_of_axis << " grasps whose fingertips stop short of its axis (slip out in physics) and "
+      << onto_hidden_side << " whose open hand lands on its hidden side";
+  const double spent_s = result.compute_time_s + watch.elapsedSeconds();
+  if (kept.empty())
+  {
+    // Keep what the caller can still use: the next view, the drawings.
+    GraspResult none = GraspResult::fail(GraspFailure::NoStableGrasp, std::string(name()) + ": " + why.str() +
+                                                                          "; none left (" + result.message + ")");
+    none.candidates_evaluated = result.candidates_evaluated;
+    none.hull = std::move(result.hull);
+    none.graspable_zone = std::move(result.graspable_zone);
+    none.candidates = std::move(result.candidates);
+    none.unseen = std::move(result.unseen);
+    none.next_view = result.next_view;
+    none.compute_time_s = spent_s;
+    return none;
+  }
+  result.grasps = std::move(kept);
+  if (short_of_axis + onto_hidden_side > 0)
+    result.message += (result.message.empty() ? "" : "; ") + why.str();
+  result.compute_time_s = spent_s;
+  return result;
+}
+
+}  // namespace fast_grasp
