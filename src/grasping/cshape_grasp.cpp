@@ -416,14 +416,17 @@ SlabSpan extractSlab(const CShapeGeometry& c, const std::vector<LocalPoint>& loc
                      std::vector<SlabPoint>& buffer)
 {
   // Written through a pre-sized buffer: push_back in this innermost loop cost 15 % of a plan.
+  // Every point is written and only those inside the slab advance the count: whether a
+  // neighbour is inside is close to a coin toss, and the branch it replaces mispredicted so
+  // often that this loop was a fifth of the fused planner's time (perf, session 22).
   if (buffer.size() < local.size())
     buffer.resize(local.size());
   std::size_t count = 0;
   for (const LocalPoint& q : local)
   {
     const float x = q.u * cos_t + q.v * sin_t;
-    if (std::abs(x) <= c.collision_half_w)
-      buffer[count++] = { x, -q.u * sin_t + q.v * cos_t, q.s, q.index };
+    buffer[count] = { x, -q.u * sin_t + q.v * cos_t, q.s, q.index };
+    count += static_cast<std::size_t>(std::abs(x) <= c.collision_half_w);
   }
   return { buffer.data(), count };
 }
