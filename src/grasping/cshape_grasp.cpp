@@ -27,6 +27,16 @@ struct LocalPoint
   int index = -1;  // >= 0: a seen point (its index in the cloud searched); -1: unseen part
 };
 
+/// The normal's coarse neighbourhood: a run of LocalPoints in a buffer that only grows.
+struct LocalSpan
+{
+  const LocalPoint* first = nullptr;
+  std::size_t count = 0;
+  const LocalPoint* begin() const { return first; }
+  const LocalPoint* end() const { return first + count; }
+  std::size_t size() const { return count; }
+};
+
 /// A neighbour inside the C-shape's slab |x| <= w/2 for one orientation.
 struct SlabPoint
 {
@@ -274,7 +284,8 @@ struct SearchContext
   std::vector<GraspCandidate> candidates;
 
   // Scratch buffers reused for every normal.
-  std::vector<LocalPoint> coarse_local;
+  std::vector<LocalPoint> coarse_buffer;
+  LocalSpan coarse_local;  // in coarse_buffer
   std::vector<SlabPoint> slab;
 
   SearchContext(const CShapeParams& p, const GripperModel& g) : params(p), gripper(g), geometry(g, p.collision_clearance_m) {}
@@ -412,7 +423,7 @@ bool analyseSides(const SearchContext& ctx, SlabSpan slab, float centre_s, doubl
 }
 
 /// The points of `local` inside the C slab |x| <= w/2 at orientation (cos_t, sin_t).
-SlabSpan extractSlab(const CShapeGeometry& c, const std::vector<LocalPoint>& local, float cos_t, float sin_t,
+SlabSpan extractSlab(const CShapeGeometry& c, LocalSpan local, float cos_t, float sin_t,
                      std::vector<SlabPoint>& buffer)
 {
   // Written through a pre-sized buffer: push_back in this innermost loop cost 15 % of a plan.
@@ -592,16 +603,6 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
   // A fingertip placement's centre may stand up to -min_depth in front of the point.
   const float depth_low = ctx.table.min_depth - c.collision_r2;
   const float depth_high = c.r1 + c.collision_tip_reach;
-  auto toLocal = [&](const Eigen::Vector3f& point, int index, std::vector<LocalPoint>& out) {
-    const Eigen::Vector3f d = point - p;
-    const float s = d.dot(approach);
-    if (s < depth_low || s > depth_high)
-      return;
-    const float pu = d.dot(u);
-    const float pv = d.dot(v);
-    if (pu * pu + pv * pv <= lateral_sq)
-      out.push_back({ s, pu, pv, index });
-  };
 
   // The table alone rules out every orientation of this normal: skip its neighbourhood search
   // (low objects seen from above: most of a hammer's or racket's normals end here).
@@ -618,11 +619,22 @@ Evaluation evaluateNormal(SearchContext& ctx, int point_index)
   // k-d tree radius search returned nearly every obstacle anyway and cost more than the scan:
   // on the cracker box bag at 10 k points FLANN's radius search was 25 % of a plan's
   // instructions (callgrind).
-  ctx.coarse_local.clear();
+  // Branchless, like extractSlab: every obstacle is written, those in the reachable cylinder
+  // advance the count.
   const std::size_t obstacle_count = ctx.obstacles->size();
+  if (ctx.coarse_buffer.size() < obstacle_count)
+    ctx.coarse_buffer.resize(obstacle_count);
+  std::size_t coarse_count = 0;
   for (std::size_t i = 0; i < obstacle_count; ++i)
-    toLocal(ctx.obstacles->points[i].getVector3fMap(), i < ctx.first_unseen ? static_cast<int>(i) : -1,
-            ctx.coarse_local);
+  {
+    const Eigen::Vector3f d = ctx.obstacles->points[i].getVector3fMap() - p;
+    const float s = d.dot(approach);
+    const float pu = d.dot(u);
+    const float pv = d.dot(v);
+    ctx.coarse_buffer[coarse_count] = { s, pu, pv, i < ctx.first_unseen ? static_cast<int>(i) : -1 };
+    coarse_count += static_cast<std::size_t>((s >= depth_low) & (s <= depth_high) & (pu * pu + pv * pv <= lateral_sq));
+  }
+  ctx.coarse_local = { ctx.coarse_buffer.data(), coarse_count };
 
   // Fig. 6.8: the first C axis is the principal axis of the local patch in the tangent plane.
   const float axis_radius =
