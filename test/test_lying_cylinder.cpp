@@ -340,18 +340,44 @@ TEST(HoldCheck, GraspsOnAStandingCanOrWithTheCheckOffAreReturnedAsPlanned)
   EXPECT_EQ(HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), off).plan(lying, gripper).grasps.size(), 1u);
 }
 
+TEST(HoldCheck, SideGraspsBelowATallObjectsCentreOfMassAreDroppedWhenAsked)
+{
+  // A 20 cm can standing on the table (radius 3 cm): a side grasp at 8 cm (0.4 of its height)
+  // holds it as an inverted pendulum, one at 17 cm (0.85) from above its centre of mass, and a
+  // top-down grasp is no side grasp at all.
+  const ObjectView standing = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.10 }, { 0, 0, 1 }, 0.03, 0.20));
+  const Eigen::Vector3d side(1, 0, 0), across(0, 1, 0);
+  GraspResult given;
+  given.grasps.push_back(graspAt({ -0.01, 0.0, 0.08 }, side, across, 0.9));
+  given.grasps.push_back(graspAt({ -0.01, 0.0, 0.17 }, side, across, 0.8));
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.20 }, { 0, 0, -1 }, across, 0.7));
+  HoldCheckParams tall = holdCheck();
+  tall.tall_object_min_height_m = 0.15;
+  tall.tall_side_min_height_frac = 0.75;
+  const GraspResult checked = HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), tall).plan(standing, synthetic::robotiqLikeGripper());
+  ASSERT_EQ(checked.grasps.size(), 2u) << checked.message;
+  EXPECT_DOUBLE_EQ(checked.grasps[0].score, 0.8);
+  EXPECT_DOUBLE_EQ(checked.grasps[1].score, 0.7);
+  EXPECT_NE(checked.message.find("tall object (200 mm): dropped 1 side grasps below its centre of mass"), std::string::npos)
+      << checked.message;
+  // A 12 cm can is not tall: nothing dropped; nor with the tall test off (the default).
+  const ObjectView short_can = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.06 }, { 0, 0, 1 }, 0.03, 0.12));
+  EXPECT_EQ(HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), tall).plan(short_can, synthetic::robotiqLikeGripper()).grasps.size(), 3u);
+  EXPECT_EQ(HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), holdCheck()).plan(standing, synthetic::robotiqLikeGripper()).grasps.size(), 3u);
+}
+
 TEST(HoldCheck, TheShippedConfigChecksEveryThesisPlannerButNotFusedsPool)
 {
   const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
-  EXPECT_EQ(config.hold_checked_planners, (std::vector<std::string>{ "principal_axis", "cshape", "boundary", "concavity" }));
-  for (const std::string& name : config.hold_checked_planners)
+  EXPECT_EQ(config.hold_check.planners, (std::vector<std::string>{ "principal_axis", "cshape", "boundary", "concavity" }));
+  for (const std::string& name : config.hold_check.planners)
   {
     const auto planner = makeGraspPlanner(name, config);
     EXPECT_NE(dynamic_cast<const HoldCheckedPlanner*>(planner.get()), nullptr) << name;
     EXPECT_EQ(planner->name(), name);
   }
   GraspPlannerConfig unchecked = config;
-  unchecked.hold_checked_planners.clear();
+  unchecked.hold_check.planners.clear();
   EXPECT_EQ(dynamic_cast<const HoldCheckedPlanner*>(makeGraspPlanner("cshape", unchecked).get()), nullptr);
   // The fused planner pools the planners unchecked (it ranks those grasps last itself): on a
   // lying can its grasps are the same with and without the check.
@@ -363,8 +389,8 @@ TEST(HoldCheck, TheShippedConfigChecksEveryThesisPlannerButNotFusedsPool)
   for (std::size_t i = 0; i < fused.grasps.size(); ++i)
     EXPECT_TRUE(fused.grasps[i].pose.isApprox(fused_unchecked.grasps[i].pose)) << i;
   EXPECT_NE(fused.message.find("fingertips short of its axis, ranked last"), std::string::npos) << fused.message;
-  EXPECT_THROW(holdCheckedPlannersFromYaml(YAML::Load("planners: [cshape, fused]")), std::runtime_error);
-  EXPECT_THROW(holdCheckedPlannersFromYaml(YAML::Load("planers: [cshape]")), std::runtime_error);
+  EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape, fused]")), std::runtime_error);
+  EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planers: [cshape]")), std::runtime_error);
 }
 
 }  // namespace fast_grasp

@@ -1,5 +1,6 @@
 #include "fast_grasp/grasping/fused_grasp.h"
 
+#include "fast_grasp/grasping/hold_check.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
@@ -53,7 +54,7 @@ struct Generated
   /// end-on grasp's far finger passes the hidden side, where the unseen part's shadows (10 cm
   /// along the camera rays) always reach; its width already assumes that hidden side.
   bool without_unseen = false;
-  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass), or one whose
+  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass, hold_check.h), or one whose
   /// fingertips fall short of a lying round object's axis: ranked after every candidate that
   /// is neither.
   bool demoted = false;
@@ -85,19 +86,6 @@ bool palmEntersUnseen(const Eigen::Isometry3d& pose, const GripperModel& gripper
 bool isTall(const ObjectExtent& extent, const FusedParams& p)
 {
   return p.tall_object_min_height_m > 0.0 && extent.height_m >= static_cast<float>(p.tall_object_min_height_m);
-}
-
-/// A side grasp (approach within 30 deg of horizontal) on a tall object closing below
-/// tall_side_min_height_frac of its height: an inverted pendulum (FusedParams).
-bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& extent, const FusedParams& p)
-{
-  if (!isTall(extent, p))
-    return false;
-  const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>();
-  if (std::abs(approach.dot(extent.up)) > 0.5f)
-    return false;
-  const float height = extent.up.dot(grasp.pose.translation().cast<float>()) + extent.table_offset;
-  return height < static_cast<float>(p.tall_side_min_height_frac) * extent.height_m;
 }
 
 /// Top-down grasps: one per closing direction at the centroid and at +-a quarter of the object's
@@ -462,7 +450,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       params_.gripper_fit.approach_opening_m > 0.0 ? params_.gripper_fit.approach_opening_m : gripper.max_opening_m;
   for (auto& g : pool)
   {
-    if (closesBelowCentreOfMass(g.grasp, extent, params_))
+    if (closesBelowCentreOfMass(g.grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
     {
       g.demoted = true;
       ++below_centre_of_mass;

@@ -392,16 +392,17 @@ TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
-std::vector<std::string> holdCheckedPlannersFromYaml(const YAML::Node& section)
+HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
 {
-  std::vector<std::string> planners;
+  HoldCheckConfig config;
   SectionReader reader(section, "hold_check");
-  reader.read("planners", planners);
-  for (const std::string& name : planners)
+  reader.read("planners", config.planners);
+  for (const std::string& name : config.planners)
     if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
       throw std::runtime_error("hold_check/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+  reader.read("tall_objects", config.tall_objects);
   reader.rejectUnknownKeys();
-  return planners;
+  return config;
 }
 
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root)
@@ -446,7 +447,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.concavity = concavityParamsFromYaml(root["concavity"]);
       config.fused = fusedParamsFromYaml(root["fused"]);
       config.table_grasps = tableGraspParamsFromYaml(root["table_grasps"]);
-      config.hold_checked_planners = holdCheckedPlannersFromYaml(root["hold_check"]);
+      config.hold_check = holdCheckConfigFromYaml(root["hold_check"]);
       setInputLimits(config, plannerInputLimitsFromYaml(root));
     }
   }
@@ -484,12 +485,17 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
 {
   if (auto planner = makeThesisPlanner(algorithm, config))
   {
-    const auto& checked = config.hold_checked_planners;
+    const auto& checked = config.hold_check.planners;
     if (std::find(checked.begin(), checked.end(), algorithm) == checked.end())
       return planner;
     HoldCheckParams hold;
     hold.lying_cylinder = config.fused.lying_cylinder;
     hold.approach_opening_m = config.fused.gripper_fit.approach_opening_m;
+    if (config.hold_check.tall_objects)
+    {
+      hold.tall_object_min_height_m = config.fused.tall_object_min_height_m;
+      hold.tall_side_min_height_frac = config.fused.tall_side_min_height_frac;
+    }
     return std::make_unique<HoldCheckedPlanner>(std::move(planner), hold);
   }
   if (algorithm == "fused")

@@ -8,6 +8,18 @@
 
 namespace fast_grasp
 {
+bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& extent, double tall_object_min_height_m,
+                             double side_min_height_frac)
+{
+  if (!(tall_object_min_height_m > 0.0) || extent.height_m < static_cast<float>(tall_object_min_height_m))
+    return false;
+  const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>();
+  if (std::abs(approach.dot(extent.up)) > 0.5f)
+    return false;
+  const float height = extent.up.dot(grasp.pose.translation().cast<float>()) + extent.table_offset;
+  return height < static_cast<float>(side_min_height_frac) * extent.height_m;
+}
+
 HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, HoldCheckParams params)
   : planner_(std::move(planner)), params_(std::move(params))
 {
@@ -16,19 +28,21 @@ HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, Ho
 GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   GraspResult result = planner_->plan(view, gripper);
-  if (!result.ok() || !params_.lying_cylinder.enabled)
+  if (!result.ok() || (!params_.lying_cylinder.enabled && !(params_.tall_object_min_height_m > 0.0)))
     return result;
   const Stopwatch watch;
-  const LyingCylinder lying = fitLyingCylinder(view, objectExtent(view), params_.lying_cylinder);
-  if (!lying.found)
-  {
-    result.compute_time_s += watch.elapsedSeconds();
-    return result;
-  }
+  const ObjectExtent extent = objectExtent(view);
+  const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
   const double opening_m = params_.approach_opening_m > 0.0 ? params_.approach_opening_m : gripper.max_opening_m;
   std::vector<GraspCandidate> kept;
-  std::size_t short_of_axis = 0, onto_hidden_side = 0;
+  std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
   for (auto& grasp : result.grasps)
+  {
+    if (closesBelowCentreOfMass(grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
+    {
+      ++below_centre_of_mass;
+      continue;
+    }
     switch (judgeGraspAcrossCylinder(grasp, gripper, lying, params_.lying_cylinder, opening_m))
     {
       case GraspAcrossCylinder::ShortOfAxis:
@@ -42,10 +56,15 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         kept.push_back(std::move(grasp));
         break;
     }
+  }
   std::ostringstream why;
-  why << "lying round object (radius " << std::lround(1000.0f * lying.radius_m) << " mm): dropped "
-      << short_of_axis << " grasps whose fingertips stop short of its axis (slip out in physics) and "
-      << onto_hidden_side << " whose open hand lands on its hidden side";
+  if (below_centre_of_mass > 0)
+    why << "tall object (" << std::lround(1000.0f * extent.height_m) << " mm): dropped " << below_centre_of_mass
+        << " side grasps below its centre of mass (an inverted pendulum in physics)";
+  if (lying.found)
+    why << (below_centre_of_mass > 0 ? "; " : "") << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
+        << " mm): dropped " << short_of_axis << " grasps whose fingertips stop short of its axis (slip out in physics) and "
+        << onto_hidden_side << " whose open hand lands on its hidden side";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {
@@ -62,7 +81,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
     return none;
   }
   result.grasps = std::move(kept);
-  if (short_of_axis + onto_hidden_side > 0)
+  if (below_centre_of_mass + short_of_axis + onto_hidden_side > 0)
     result.message += (result.message.empty() ? "" : "; ") + why.str();
   result.compute_time_s = spent_s;
   return result;

@@ -82,7 +82,7 @@ GraspPlannerConfig GraspPlannerNodelet::plannerConfig(const ros::NodeHandle& pri
   config.boundary = boundaryParamsFromYaml(paramAsYaml(private_nh, "boundary"));
   config.concavity = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
   config.fused = fusedParamsFromYaml(paramAsYaml(private_nh, "fused"));
-  config.hold_checked_planners = holdCheckedPlannersFromYaml(paramAsYaml(private_nh, "hold_check"));
+  config.hold_check = holdCheckConfigFromYaml(paramAsYaml(private_nh, "hold_check"));
   YAML::Node top_level(YAML::NodeType::Map);
   if (private_nh.hasParam("max_object_extent_m"))
     top_level["max_object_extent_m"] = paramAsYaml(private_nh, "max_object_extent_m");

@@ -48,10 +48,17 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section);
 /// the others.
 TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section);
 
-/// Reads the top-level `hold_check:` section: `planners`, the thesis planners (principal_axis,
-/// cshape, boundary, concavity) whose grasps pass the hold check (hold_check.h) before they are
-/// returned. Throws std::runtime_error on another name or an unknown key.
-std::vector<std::string> holdCheckedPlannersFromYaml(const YAML::Node& section);
+/// The top-level `hold_check:` section: which thesis planners' grasps pass the hold check
+/// (hold_check.h) before they are returned, and whether it includes the tall-object test. The
+/// check's values are the fused section's (lying_cylinder, tall_*), so both judge alike.
+struct HoldCheckConfig
+{
+  std::vector<std::string> planners;  // principal_axis, cshape, boundary, concavity (never fused's pool)
+  bool tall_objects = false;
+};
+
+/// Reads `hold_check:`. Throws std::runtime_error on another planner name or an unknown key.
+HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section);
 
 /// The top-level `max_object_extent_m` of grasp_planners.yaml (the root map; a missing key keeps
 /// the default). Throws std::runtime_error on a non-positive or unreadable value.
@@ -66,9 +73,9 @@ struct GraspPlannerConfig
   ConcavityParams concavity;
   FusedParams fused;
   TableGraspParams table_grasps;  // used when every object of a table is planned
-  /// Thesis planners wrapped in HoldCheckedPlanner by makeGraspPlanner (the check's values are
-  /// fused.lying_cylinder's); never the fused planner's pooled ones, which it ranks itself.
-  std::vector<std::string> hold_checked_planners;
+  /// Thesis planners wrapped in HoldCheckedPlanner by makeGraspPlanner; never the fused
+  /// planner's pooled ones, which it ranks itself.
+  HoldCheckConfig hold_check;
 };
 
 /// Gives every planner of `config` the same input limits.
