@@ -154,38 +154,6 @@ TEST(FusedGrasp, GeneratedCandidatesCloseAcrossTheNarrowSideAndStayOffTheTable)
   }
 }
 
-TEST(FusedGrasp, WhenNothingElseFitsABoxTiltedInAPileIsGraspedAcrossItsThicknessInItsOwnFrame)
-{
-  // A 5 x 12 x 10 cm box tilted 40 deg about y towards the camera (leaning on something out of
-  // view, its lowest corner 2.6 cm above the table): no face is square to the table, and the
-  // camera sees its top face. Of its sides only the 5 cm thickness fits the 85 mm opening, so
-  // every principal-frame grasp must close along the box's own x axis, about 5 cm wide.
-  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(-40.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Vector3d camera(-0.35, 0.0, 0.43);
-  auto cloud = synthetic::renderView(synthetic::makeBox({ 0.0, 0.0, 0.08 }, { 0.05, 0.12, 0.10 }, tilt),
-                                     { camera, 0.003, 0.0, 1 });
-  ObjectView view = synthetic::makeObjectView(cloud, camera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
-  const GripperModel gripper = synthetic::robotiqLikeGripper();
-  FusedParams p = noCandidatesOfItsOwn();  // an empty pool: nothing else fits
-  p.principal_frame_fallback = true;
-  const GraspResult result = FusedGraspPlanner({}, p).plan(view, gripper);
-  ASSERT_TRUE(result.ok()) << result.message;
-  const Eigen::Vector3d thickness = tilt.col(0);
-  for (const GraspCandidate& g : result.grasps)
-  {
-    EXPECT_EQ(g.algorithm, "fused/principal_frame");
-    EXPECT_GT(std::abs(g.binormal().dot(thickness)), std::cos(15.0 * M_PI / 180.0)) << g.binormal().transpose();
-    EXPECT_NEAR(g.width_m, 0.05, 0.012);
-    EXPECT_LT(g.approach().z(), 0.31);  // never from below
-  }
-  EXPECT_NE(result.message.find("principal frame (nothing else returned)"), std::string::npos) << result.message;
-  // Off (the default): the empty pool stays empty.
-  p.principal_frame_fallback = false;
-  EXPECT_EQ(FusedGraspPlanner({}, p).plan(view, gripper).failure, GraspFailure::NoStableGrasp);
-}
-
 TEST(FusedGrasp, TheModelDecidesTheRanking)
 {
   const ObjectView view = boxView();

@@ -1,6 +1,5 @@
 #include "fast_grasp/grasping/fused_grasp.h"
 
-#include "fast_grasp/grasping/grasp_geometry.h"
 #include "fast_grasp/grasping/hold_check.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
@@ -291,66 +290,6 @@ void endCandidates(const ObjectView& view, const ObjectExtent& extent, const Gri
     out.push_back(g);
   }
 }
-/// Principal-frame candidates (FusedParams::principal_frame_fallback): the hand approaches along
-/// each of the view's principal axes (either way, never from below) and closes along another,
-/// around the last finger_depth_m less the palm clearance of the object at the end it comes
-/// from, as wide as the seen points there. Like the end-on grasps, but in the object's own frame:
-/// a box lying tilted on others in a pile (its faces square to no table axis) is grasped across
-/// its thickness from its edge, or across its width onto its top face.
-void principalFrameCandidates(const ObjectView& view, const ObjectExtent& extent, const GripperModel& gripper,
-                              const FusedParams& p, std::vector<Generated>& out)
-{
-  const PrincipalFrame frame = computePrincipalFrame(*view.cloud);
-  if (frame.point_count < 10)
-    return;
-  const float palm_clearance = static_cast<float>(p.gripper_fit.palm_clearance_m) + 0.001f;
-  const float surrounded = static_cast<float>(gripper.finger_depth_m) - palm_clearance;
-  const float max_width = static_cast<float>(gripper.max_opening_m) - 0.005f;
-  if (surrounded <= 0.0f)
-    return;
-  constexpr float kMinSeenAcrossLeastAxisM = 0.03f;
-  const auto [least_lo, least_hi] = extentAlong(*view.cloud, frame.axes.col(2));
-  const float least_axis_seen_m = least_hi - least_lo;
-  for (int i = 0; i < 3; ++i)
-    for (const float sign : { 1.0f, -1.0f })
-    {
-      const Eigen::Vector3f approach = sign * frame.axes.col(i);
-      if (approach.dot(extent.up) > 0.3f)
-        continue;  // from below the object: through the table
-      const float front = extentAlong(*view.cloud, approach).first;
-      for (int j = 0; j < 3; ++j)
-      {
-        // Closing along the least principal axis only where the view spans it: it is the normal
-        // of the face the camera sees best, and unless a second face is seen across it (a slab's
-        // edge) the object's depth behind that face is hidden, and so is the width.
-        if (j == i || (j == 2 && least_axis_seen_m < kMinSeenAcrossLeastAxisM))
-          continue;
-        const Eigen::Vector3f closing = frame.axes.col(j);
-        const Eigen::Vector3f across = approach.cross(closing);
-        float lo = std::numeric_limits<float>::max(), hi = -lo, sum_across = 0.0f;
-        std::size_t in_fingers = 0;
-        for (const auto& q : view.cloud->points)
-        {
-          const Eigen::Vector3f v = q.getVector3fMap();
-          if (!v.allFinite() || approach.dot(v) > front + surrounded)
-            continue;
-          lo = std::min(lo, closing.dot(v));
-          hi = std::max(hi, closing.dot(v));
-          sum_across += across.dot(v);
-          ++in_fingers;
-        }
-        if (in_fingers < 5 || hi - lo > max_width)
-          continue;
-        Eigen::Vector3f centre = (front - palm_clearance + 0.5f * static_cast<float>(gripper.finger_depth_m)) * approach;
-        centre += 0.5f * (lo + hi) * closing + (sum_across / static_cast<float>(in_fingers)) * across;
-        Generated g;
-        g.source = "principal_frame";
-        g.grasp.pose = makeGraspPose(centre.cast<double>(), approach.cast<double>(), closing.cast<double>());
-        g.grasp.width_m = std::max(static_cast<double>(hi - lo), gripper.min_opening_m);
-        out.push_back(g);
-      }
-    }
-}
 }  // namespace
 
 std::string FusedParams::validate() const
@@ -416,20 +355,20 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   topDownCandidates(view, extent, gripper, params_, generated);
   sideCandidates(view, extent, gripper, params_, generated);
   endCandidates(view, extent, gripper, params_, generated);
-  // Like the planners' hands, ours stay out of the seen points, the unseen part and the table
-  // (end-on grasps out of the first and the last only: Generated::without_unseen).
-  const auto hand_check = [&](const GripperFitParams& fit, bool with_unseen = true) {
-    GripperVolumeCheck check(gripper, fit);
-    check.addSeen(*view.cloud);
-    check.addObstacles(view);  // the neighbours always: seen or not, they are there
-    if (with_unseen)
-      check.addUnseen(unseen);
-    if (view.has_table_plane)
-      check.setTable(view.table_plane);
-    return check;
-  };
   if (params_.gripper_fit.enabled && (!generated.empty() || params_.deepen_pooled_max_m > 0.0))
   {
+    // Like the planners' hands, ours stay out of the seen points, the unseen part and the table
+    // (end-on grasps out of the first and the last only: Generated::without_unseen).
+    const auto hand_check = [&](const GripperFitParams& fit, bool with_unseen = true) {
+      GripperVolumeCheck check(gripper, fit);
+      check.addSeen(*view.cloud);
+      check.addObstacles(view);  // the neighbours always: seen or not, they are there
+      if (with_unseen)
+        check.addUnseen(unseen);
+      if (view.has_table_plane)
+        check.setTable(view.table_plane);
+      return check;
+    };
     const GripperVolumeCheck check = hand_check(params_.gripper_fit);
     if (params_.deepen_pooled_max_m > 0.0)
     {
@@ -478,10 +417,72 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   }
   result.candidates_evaluated += generated.size();
 
-  // Features, the model's score, the rules that rank a grasp last, the full-resolution check
-  // and the grasps returned; for the pool, then (when nothing was returned) for the fallback.
+  for (auto& g : pool)
+    g.grasp.features = graspFeatures(g.grasp, g.source, view, extent, gripper);
+  // Support: how many other candidates (any source) close on nearly the same line. A grasp that
+  // several methods or neighbouring directions agree on is less sensitive to where the hand
+  // really ends up.
+  const std::size_t support_index = graspFeatureNames().size() - 1;
+  for (std::size_t i = 0; i < pool.size(); ++i)
+  {
+    std::size_t near = 0;
+    const Eigen::Isometry3d& a = pool[i].grasp.pose;
+    for (std::size_t j = 0; j < pool.size(); ++j)
+    {
+      const Eigen::Isometry3d& b = pool[j].grasp.pose;
+      if (j != i && (a.translation() - b.translation()).norm() < 0.015 &&
+          std::abs(a.linear().col(1).dot(b.linear().col(1))) > std::cos(0.35))
+        ++near;
+    }
+    pool[i].grasp.features[support_index] = std::log1p(static_cast<double>(near)) / std::log(20.0);
+  }
+  for (auto& g : pool)
+  {
+    g.grasp.score = params_.model.probability(g.grasp.features);
+    g.grasp.algorithm = "fused/" + g.source;
+  }
+  // Side grasps closing below a tall object's centre of mass, and grasps whose fingertips stop
+  // short of a lying round object's axis, rank after every other candidate (kept: with nothing
+  // else they are still a grasp).
+  const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
+  std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
+  const double approach_opening_m =
+      params_.gripper_fit.approach_opening_m > 0.0 ? params_.gripper_fit.approach_opening_m : gripper.max_opening_m;
+  for (auto& g : pool)
+  {
+    if (closesBelowCentreOfMass(g.grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
+    {
+      g.demoted = true;
+      ++below_centre_of_mass;
+    }
+    else
+      switch (judgeGraspAcrossCylinder(g.grasp, gripper, lying, params_.lying_cylinder, approach_opening_m))
+      {
+        case GraspAcrossCylinder::ShortOfAxis:
+          g.demoted = true;
+          ++short_of_axis;
+          break;
+        case GraspAcrossCylinder::OntoHiddenSide:
+          g.demoted = true;
+          ++onto_hidden_side;
+          break;
+        case GraspAcrossCylinder::NotAcross:
+        case GraspAcrossCylinder::Holds:
+          break;
+      }
+  }
+  if (below_centre_of_mass > 0)
+    summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";
+  if (lying.found)
+    summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
+            << " mm), fingertips short of its axis, ranked last: " << short_of_axis
+            << "; open hand onto its hidden side, ranked last: " << onto_hidden_side << "; ";
+  std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
+    return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
+  });
   double best = 0.0;
-  std::size_t dropped_at_full_resolution = 0;
+  for (const auto& g : pool)
+    best = std::max(best, g.grasp.score);
   // Everything above saw the thinned view, and the pooled planners built their unseen parts
   // from it: coarser silhouettes, sparser shadows. A hand that cleared those can still enter
   // the object's hidden back (the cracker box bag at max_pooled_points 500: a concavity grasp's
@@ -509,113 +510,24 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     if (full_unseen.ok())
       full_check->addUnseen(full_unseen.points);
   }
-  const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
-  const auto rank_and_select = [&](std::vector<Generated>& candidates) {
-    for (auto& g : candidates)
-      g.grasp.features = graspFeatures(g.grasp, g.source, view, extent, gripper);
-    // Support: how many other candidates (any source) close on nearly the same line. A grasp that
-    // several methods or neighbouring directions agree on is less sensitive to where the hand
-    // really ends up.
-    const std::size_t support_index = graspFeatureNames().size() - 1;
-    for (std::size_t i = 0; i < candidates.size(); ++i)
-    {
-      std::size_t near = 0;
-      const Eigen::Isometry3d& a = candidates[i].grasp.pose;
-      for (std::size_t j = 0; j < candidates.size(); ++j)
-      {
-        const Eigen::Isometry3d& b = candidates[j].grasp.pose;
-        if (j != i && (a.translation() - b.translation()).norm() < 0.015 &&
-            std::abs(a.linear().col(1).dot(b.linear().col(1))) > std::cos(0.35))
-          ++near;
-      }
-      candidates[i].grasp.features[support_index] = std::log1p(static_cast<double>(near)) / std::log(20.0);
-    }
-    for (auto& g : candidates)
-    {
-      g.grasp.score = params_.model.probability(g.grasp.features);
-      g.grasp.algorithm = "fused/" + g.source;
-    }
-    // Side grasps closing below a tall object's centre of mass, and grasps whose fingertips stop
-    // short of a lying round object's axis, rank after every other candidate (kept: with nothing
-    // else they are still a grasp).
-    std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
-    const double approach_opening_m =
-        params_.gripper_fit.approach_opening_m > 0.0 ? params_.gripper_fit.approach_opening_m : gripper.max_opening_m;
-    for (auto& g : candidates)
-    {
-      if (closesBelowCentreOfMass(g.grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
-      {
-        g.demoted = true;
-        ++below_centre_of_mass;
-      }
-      else
-        switch (judgeGraspAcrossCylinder(g.grasp, gripper, lying, params_.lying_cylinder, approach_opening_m))
-        {
-          case GraspAcrossCylinder::ShortOfAxis:
-            g.demoted = true;
-            ++short_of_axis;
-            break;
-          case GraspAcrossCylinder::OntoHiddenSide:
-            g.demoted = true;
-            ++onto_hidden_side;
-            break;
-          case GraspAcrossCylinder::NotAcross:
-          case GraspAcrossCylinder::Holds:
-            break;
-        }
-    }
-    if (below_centre_of_mass > 0)
-      summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";
-    if (lying.found)
-      summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
-              << " mm), fingertips short of its axis, ranked last: " << short_of_axis
-              << "; open hand onto its hidden side, ranked last: " << onto_hidden_side << "; ";
-    std::stable_sort(candidates.begin(), candidates.end(), [](const Generated& a, const Generated& b) {
-      return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
-    });
-    for (const auto& g : candidates)
-      best = std::max(best, g.grasp.score);
-    for (auto& g : candidates)
-    {
-      if (result.grasps.size() >= params_.max_grasps)
-        break;
-      if (g.grasp.score < params_.min_success_probability)
-        continue;  // (not break: demoted candidates follow, in their own score order)
-      if (full_check)
-      {
-        const GripperFit fitted = (g.without_unseen ? *full_seen_only_check : *full_check).fit(g.grasp.pose, g.grasp.width_m);
-        if (!fitted.ok)
-        {
-          ++dropped_at_full_resolution;
-          continue;
-        }
-        g.grasp.pose = fitted.pose;
-      }
-      result.grasps.push_back(std::move(g.grasp));
-    }
-  };
-  rank_and_select(pool);
-
-  // Nothing returned: the object's own principal frame, as a last resort (a box lying tilted
-  // in a pile, which no table-aligned family and no thesis planner fits).
-  if (result.grasps.empty() && params_.principal_frame_fallback && params_.gripper_fit.enabled)
+  std::size_t dropped_at_full_resolution = 0;
+  for (auto& g : pool)
   {
-    std::vector<Generated> fallback;
-    principalFrameCandidates(view, extent, gripper, params_, fallback);
-    const GripperVolumeCheck check = hand_check(params_.gripper_fit);
-    std::vector<Generated> fitting;
-    for (auto& g : fallback)
+    if (result.grasps.size() >= params_.max_grasps)
+      break;
+    if (g.grasp.score < params_.min_success_probability)
+      continue;  // (not break: demoted candidates follow, in their own score order)
+    if (full_check)
     {
-      const GripperFit fitted = check.fitOrTilt(g.grasp.pose, g.grasp.width_m);
+      const GripperFit fitted = (g.without_unseen ? *full_seen_only_check : *full_check).fit(g.grasp.pose, g.grasp.width_m);
       if (!fitted.ok)
+      {
+        ++dropped_at_full_resolution;
         continue;
+      }
       g.grasp.pose = fitted.pose;
-      fitting.push_back(std::move(g));
     }
-    summary << "principal frame (nothing else returned): " << fitting.size() << " of " << fallback.size() << " fit; ";
-    result.candidates_evaluated += fallback.size();
-    rank_and_select(fitting);
-    pool.insert(pool.end(), std::make_move_iterator(fitting.begin()), std::make_move_iterator(fitting.end()));
+    result.grasps.push_back(std::move(g.grasp));
   }
   if (full_check)
     summary << "dropped at full resolution: " << dropped_at_full_resolution << "; ";

@@ -320,7 +320,6 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   reader.read("side_high_fracs", p.side_high_fracs);
   reader.readNonNegative("tall_side_min_height_frac", p.tall_side_min_height_frac);
   reader.read("end_grasps", p.end_grasps);
-  reader.read("principal_frame_fallback", p.principal_frame_fallback);
   reader.readNonNegative("deepen_pooled_max_m", p.deepen_pooled_max_m);
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);
   reader.readCount("max_grasps", p.max_grasps, 1);

@@ -60,13 +60,6 @@ struct FusedParams
   /// the hidden side; its palm still keeps out of it, palmEntersUnseen): the width assumes the
   /// object as wide as high there.
   bool end_grasps = true;
-  /// When nothing else fits (no planner grasp, no generated candidate): candidates along the
-  /// view's principal axes (approach along one, either way but never from below, closing along
-  /// another, around the end the hand comes from). Beyond the thesis: in piles a box lying
-  /// tilted on other objects has faces square to no table direction, and every other family
-  /// missed it (training piles, session 22: a cracker box leaning over four objects, a tea box
-  /// on a lemon, each ending its table with "no grasp").
-  bool principal_frame_fallback = false;
   /// The pooled planners, the generated candidates and the features see at most this many
   /// points (every k-th point of a larger view; 0 = all). The planners' cost grows with the
   /// points (C-shape ~21 ms at 10k) while a 5 mm voxel-filtered object at 0.6 m has a few
