@@ -305,14 +305,24 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
   return p;
 }
 
+namespace
+{
+/// Throws unless every name is one of the thesis planners (a list the fused planner pools or the
+/// hold check wraps: never "fused" itself).
+void requireThesisPlanners(const std::vector<std::string>& names, const std::string& key)
+{
+  for (const std::string& name : names)
+    if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
+      throw std::runtime_error(key + ": '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+}
+}  // namespace
+
 FusedParams fusedParamsFromYaml(const YAML::Node& section)
 {
   FusedParams p;
   SectionReader reader(section, "fused");
   reader.read("planners", p.planners);
-  for (const std::string& name : p.planners)
-    if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
-      throw std::runtime_error("fused/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+  requireThesisPlanners(p.planners, "fused/planners");
   reader.readCount("top_down_directions", p.top_down_directions, 0);
   reader.readCount("side_directions", p.side_directions, 0);
   reader.readNonNegative("side_spread_rad", p.side_spread_rad);
@@ -397,9 +407,7 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
   HoldCheckConfig config;
   SectionReader reader(section, "hold_check");
   reader.read("planners", config.planners);
-  for (const std::string& name : config.planners)
-    if (name != "principal_axis" && name != "cshape" && name != "boundary" && name != "concavity")
-      throw std::runtime_error("hold_check/planners: '" + name + "' is none of principal_axis, cshape, boundary, concavity");
+  requireThesisPlanners(config.planners, "hold_check/planners");
   reader.read("tall_objects", config.tall_objects);
   reader.rejectUnknownKeys();
   return config;
