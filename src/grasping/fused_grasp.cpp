@@ -445,38 +445,24 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   // short of a lying round object's axis, rank after every other candidate (kept: with nothing
   // else they are still a grasp).
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
-  std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
-  const double approach_opening_m =
-      params_.gripper_fit.approach_opening_m > 0.0 ? params_.gripper_fit.approach_opening_m : gripper.max_opening_m;
+  HoldCheckParams rules;  // the same rules the hold check drops by (hold_check.h)
+  rules.lying_cylinder = params_.lying_cylinder;
+  rules.approach_opening_m = params_.gripper_fit.approach_opening_m;
+  rules.tall_object_min_height_m = params_.tall_object_min_height_m;
+  rules.tall_side_min_height_frac = params_.tall_side_min_height_frac;
+  DropCounts demoted;
   for (auto& g : pool)
   {
-    if (closesBelowCentreOfMass(g.grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
-    {
-      g.demoted = true;
-      ++below_centre_of_mass;
-    }
-    else
-      switch (judgeGraspAcrossCylinder(g.grasp, gripper, lying, params_.lying_cylinder, approach_opening_m))
-      {
-        case GraspAcrossCylinder::ShortOfAxis:
-          g.demoted = true;
-          ++short_of_axis;
-          break;
-        case GraspAcrossCylinder::OntoHiddenSide:
-          g.demoted = true;
-          ++onto_hidden_side;
-          break;
-        case GraspAcrossCylinder::NotAcross:
-        case GraspAcrossCylinder::Holds:
-          break;
-      }
+    const DropRisk risk = dropRisk(g.grasp, gripper, extent, lying, rules);
+    g.demoted = risk != DropRisk::None;
+    demoted.add(risk);
   }
-  if (below_centre_of_mass > 0)
-    summary << "below a tall object's centre of mass, ranked last: " << below_centre_of_mass << "; ";
+  if (demoted.below_centre_of_mass > 0)
+    summary << "below a tall object's centre of mass, ranked last: " << demoted.below_centre_of_mass << "; ";
   if (lying.found)
     summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
-            << " mm), fingertips short of its axis, ranked last: " << short_of_axis
-            << "; open hand onto its hidden side, ranked last: " << onto_hidden_side << "; ";
+            << " mm), fingertips short of its axis, ranked last: " << demoted.short_of_axis
+            << "; open hand onto its hidden side, ranked last: " << demoted.onto_hidden_side << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
   });

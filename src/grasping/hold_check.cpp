@@ -20,6 +20,43 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
   return height < static_cast<float>(side_min_height_frac) * extent.height_m;
 }
 
+DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
+                  const LyingCylinder& lying, const HoldCheckParams& params)
+{
+  if (closesBelowCentreOfMass(grasp, extent, params.tall_object_min_height_m, params.tall_side_min_height_frac))
+    return DropRisk::BelowCentreOfMass;
+  const double opening_m = params.approach_opening_m > 0.0 ? params.approach_opening_m : gripper.max_opening_m;
+  switch (judgeGraspAcrossCylinder(grasp, gripper, lying, params.lying_cylinder, opening_m))
+  {
+    case GraspAcrossCylinder::ShortOfAxis:
+      return DropRisk::ShortOfAxis;
+    case GraspAcrossCylinder::OntoHiddenSide:
+      return DropRisk::OntoHiddenSide;
+    case GraspAcrossCylinder::NotAcross:
+    case GraspAcrossCylinder::Holds:
+      break;
+  }
+  return DropRisk::None;
+}
+
+void DropCounts::add(DropRisk risk)
+{
+  switch (risk)
+  {
+    case DropRisk::BelowCentreOfMass:
+      ++below_centre_of_mass;
+      break;
+    case DropRisk::ShortOfAxis:
+      ++short_of_axis;
+      break;
+    case DropRisk::OntoHiddenSide:
+      ++onto_hidden_side;
+      break;
+    case DropRisk::None:
+      break;
+  }
+}
+
 HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, HoldCheckParams params)
   : planner_(std::move(planner)), params_(std::move(params))
 {
@@ -33,38 +70,24 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
-  const double opening_m = params_.approach_opening_m > 0.0 ? params_.approach_opening_m : gripper.max_opening_m;
   std::vector<GraspCandidate> kept;
-  std::size_t below_centre_of_mass = 0, short_of_axis = 0, onto_hidden_side = 0;
+  DropCounts dropped;
   for (auto& grasp : result.grasps)
   {
-    if (closesBelowCentreOfMass(grasp, extent, params_.tall_object_min_height_m, params_.tall_side_min_height_frac))
-    {
-      ++below_centre_of_mass;
-      continue;
-    }
-    switch (judgeGraspAcrossCylinder(grasp, gripper, lying, params_.lying_cylinder, opening_m))
-    {
-      case GraspAcrossCylinder::ShortOfAxis:
-        ++short_of_axis;
-        break;
-      case GraspAcrossCylinder::OntoHiddenSide:
-        ++onto_hidden_side;
-        break;
-      case GraspAcrossCylinder::NotAcross:
-      case GraspAcrossCylinder::Holds:
-        kept.push_back(std::move(grasp));
-        break;
-    }
+    const DropRisk risk = dropRisk(grasp, gripper, extent, lying, params_);
+    dropped.add(risk);
+    if (risk == DropRisk::None)
+      kept.push_back(std::move(grasp));
   }
   std::ostringstream why;
-  if (below_centre_of_mass > 0)
-    why << "tall object (" << std::lround(1000.0f * extent.height_m) << " mm): dropped " << below_centre_of_mass
+  if (dropped.below_centre_of_mass > 0)
+    why << "tall object (" << std::lround(1000.0f * extent.height_m) << " mm): dropped " << dropped.below_centre_of_mass
         << " side grasps below its centre of mass (an inverted pendulum in physics)";
   if (lying.found)
-    why << (below_centre_of_mass > 0 ? "; " : "") << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
-        << " mm): dropped " << short_of_axis << " grasps whose fingertips stop short of its axis (slip out in physics) and "
-        << onto_hidden_side << " whose open hand lands on its hidden side";
+    why << (dropped.below_centre_of_mass > 0 ? "; " : "") << "lying round object (radius "
+        << std::lround(1000.0f * lying.radius_m) << " mm): dropped " << dropped.short_of_axis
+        << " grasps whose fingertips stop short of its axis (slip out in physics) and " << dropped.onto_hidden_side
+        << " whose open hand lands on its hidden side";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {
@@ -81,7 +104,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
     return none;
   }
   result.grasps = std::move(kept);
-  if (below_centre_of_mass + short_of_axis + onto_hidden_side > 0)
+  if (dropped.total() > 0)
     result.message += (result.message.empty() ? "" : "; ") + why.str();
   result.compute_time_s = spent_s;
   return result;

@@ -17,6 +17,7 @@
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
 
+#include <cstddef>
 #include <memory>
 #include <string>
 
@@ -43,6 +44,32 @@ struct HoldCheckParams
 /// 0.7 and every time at 0.9 and above. The fused planner ranks them last.
 bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& extent, double tall_object_min_height_m,
                              double side_min_height_frac);
+
+/// Why a grasp would drop the object, by the rules above and lying_cylinder.h's (None: they
+/// see no reason). The fused planner ranks such grasps last, the hold check drops them.
+enum class DropRisk
+{
+  None,
+  BelowCentreOfMass,  // closesBelowCentreOfMass
+  ShortOfAxis,        // GraspAcrossCylinder::ShortOfAxis
+  OntoHiddenSide,     // GraspAcrossCylinder::OntoHiddenSide
+};
+
+/// Judges `grasp` on the view whose extent and lying round object (fitLyingCylinder, with
+/// params.lying_cylinder) are given.
+DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
+                  const LyingCylinder& lying, const HoldCheckParams& params);
+
+/// How many grasps each rule caught (for the planners' messages).
+struct DropCounts
+{
+  std::size_t below_centre_of_mass = 0;
+  std::size_t short_of_axis = 0;
+  std::size_t onto_hidden_side = 0;
+
+  void add(DropRisk risk);
+  std::size_t total() const { return below_centre_of_mass + short_of_axis + onto_hidden_side; }
+};
 
 /// Wraps `planner`: same name, same grasps in the same order, less those the check drops.
 class HoldCheckedPlanner : public GraspPlanner
