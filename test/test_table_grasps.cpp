@@ -302,3 +302,44 @@ TEST(TableGrasps, TheYamlSectionIsReadAndBadValuesAreRefused)
 }
 
 }  // namespace fast_grasp
+
+namespace fast_grasp
+{
+TEST(TableGrasps, AViewsOwnBlindSpaceBlocksTheWayInAndStaysWithTheNeighbours)
+{
+  // Box A (4 x 4 x 8 cm at the origin) carries an obstacle point of its own 8 cm above its top
+  // (z = 16 cm): space near_range.h calls blind, where A may go on. A top-down grasp at z = 6 cm
+  // clears that point at the grasp (fingers 4-8 cm, the 3 cm palm up to 11 cm) but its palm
+  // passes through it on the way in from the pre-grasp 10 cm up; a grasp from the side
+  // (approach +x at z = 6 cm, the hand within 6 +- 2.2 cm) never comes near it. Neighbour B (at
+  // y = 20 cm, out of every hand's way) must not replace A's own obstacles in the view A's
+  // planner gets.
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.0, 0.0, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.0, 0.2, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { kCamera, 0.002, 0.0, 1 });
+  std::vector<ObjectView> views{ objectOf(scene, 0.1, true), objectOf(scene, 0.1, false) };
+  auto blind = std::make_shared<CloudXYZ>();
+  blind->push_back(PointXYZ(0.0f, 0.0f, 0.16f));
+  views[0].obstacles = blind;
+  std::size_t own_obstacles_seen = 0;
+  const StubPlanner planner([&](const ObjectView& view) {
+    if (centroidOf(view).y() > 0.1)
+      return std::vector<GraspCandidate>{};
+    if (view.obstacles)
+      for (const auto& p : view.obstacles->points)
+        own_obstacles_seen += (p.getVector3fMap() - Eigen::Vector3f(0.0f, 0.0f, 0.16f)).norm() < 1e-6f;
+    GraspCandidate side;
+    side.pose = makeGraspPose({ -0.01, 0.0, 0.06 }, Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY());
+    side.width_m = 0.04;
+    side.score = 0.5;
+    return std::vector<GraspCandidate>{ topDown({ 0.0, 0.0, 0.06 }, Eigen::Vector3d::UnitY(), 0.9), side };
+  });
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const TableGraspResult table = planTableGrasps(views, planner, gripper, TableGraspParams{});
+  EXPECT_EQ(own_obstacles_seen, 1u);
+  const ObjectGrasps& a = table.objects.at(0);
+  EXPECT_EQ(a.blocked_by_neighbours, 1u);
+  ASSERT_EQ(a.result.grasps.size(), 1u);
+  EXPECT_NEAR(a.result.grasps.front().approach().x(), 1.0, 1e-9);
+}
+}  // namespace fast_grasp

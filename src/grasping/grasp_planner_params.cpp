@@ -413,6 +413,23 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
   return config;
 }
 
+NearRangeParams nearRangeParamsFromYaml(const YAML::Node& section)
+{
+  NearRangeParams p;
+  SectionReader reader(section, "near_range");
+  reader.readNonNegative("sensor_min_range_m", p.sensor_min_range_m);
+  reader.readPositive("margin_m", p.margin_m);
+  reader.readCount("min_points", p.min_points, 1);
+  reader.readPositive("extension_m", p.extension_m);
+  reader.readPositive("step_m", p.step_m);
+  reader.read("toward_camera", p.toward_camera);
+  reader.rejectUnknownKeys();
+  const std::string problem = p.validate();
+  if (!problem.empty())
+    throw std::runtime_error("near_range: " + problem);
+  return p;
+}
+
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root)
 {
   PlannerInputLimits limits;
@@ -456,6 +473,7 @@ GraspPlannerConfig loadGraspPlannerConfig(const std::string& yaml_path)
       config.fused = fusedParamsFromYaml(root["fused"]);
       config.table_grasps = tableGraspParamsFromYaml(root["table_grasps"]);
       config.hold_check = holdCheckConfigFromYaml(root["hold_check"]);
+      config.near_range = nearRangeParamsFromYaml(root["near_range"]);
       setInputLimits(config, plannerInputLimitsFromYaml(root));
     }
   }

@@ -96,6 +96,8 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     if (!views[i].cloud)
       continue;
     appendPoints(*views[i].cloud, obstacles[i]);
+    if (views[i].obstacles)  // what its view already keeps hands out of: its blind space (near_range.h)
+      appendPoints(*views[i].obstacles, obstacles[i]);
     if (params.neighbour_unseen_parts && !views[i].sensor_origins.empty())
     {
       std::optional<Eigen::Vector4f> plane;
@@ -125,6 +127,8 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
       const Eigen::Vector3f lo = extent.box_min.array() - reach;
       const Eigen::Vector3f hi = extent.box_max.array() + reach;
       auto near = std::make_shared<CloudXYZ>();
+      if (views[i].obstacles)
+        *near = *views[i].obstacles;
       for (std::size_t j = 0; j < views.size(); ++j)
         if (j != i)
           for (const Eigen::Vector3f& q : obstacles[j])
@@ -140,13 +144,19 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
       object.centroid = extent.centroid;
       object.base_distance_m = extent.centroid.norm();
     }
-    // The others' obstacles, in one matrix.
-    std::size_t others = 0;
+    // The others' obstacles and the view's own (its blind space), in one matrix: the hand
+    // comes in through them from the pre-grasp, which the planner's check at the grasp misses.
+    std::vector<Eigen::Vector3f> own;
+    if (views[i].obstacles)
+      appendPoints(*views[i].obstacles, own);
+    std::size_t others = own.size();
     for (std::size_t j = 0; j < views.size(); ++j)
       if (j != i)
         others += obstacles[j].size();
     Eigen::Matrix3Xf in_the_way(3, static_cast<Eigen::Index>(others));
     Eigen::Index column = 0;
+    for (const Eigen::Vector3f& p : own)
+      in_the_way.col(column++) = p;
     for (std::size_t j = 0; j < views.size(); ++j)
       if (j != i)
         for (const Eigen::Vector3f& p : obstacles[j])
@@ -162,7 +172,8 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
       object.result.failure = GraspFailure::NoStableGrasp;
       object.result.message += (object.result.message.empty() ? "" : "; ") +
                                std::to_string(object.blocked_by_neighbours) +
-                               " grasp(s) blocked by neighbouring objects";
+                               " grasp(s) blocked by neighbouring objects" +
+                               (views[i].obstacles ? " or the object's blind space" : "");
     }
     table.objects.push_back(std::move(object));
   }

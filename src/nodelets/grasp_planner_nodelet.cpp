@@ -83,6 +83,7 @@ GraspPlannerConfig GraspPlannerNodelet::plannerConfig(const ros::NodeHandle& pri
   config.concavity = concavityParamsFromYaml(paramAsYaml(private_nh, "concavity"));
   config.fused = fusedParamsFromYaml(paramAsYaml(private_nh, "fused"));
   config.hold_check = holdCheckConfigFromYaml(paramAsYaml(private_nh, "hold_check"));
+  config.near_range = nearRangeParamsFromYaml(paramAsYaml(private_nh, "near_range"));
   YAML::Node top_level(YAML::NodeType::Map);
   if (private_nh.hasParam("max_object_extent_m"))
     top_level["max_object_extent_m"] = paramAsYaml(private_nh, "max_object_extent_m");
@@ -129,6 +130,7 @@ void GraspPlannerNodelet::onInit()
   try
   {
     planner_ = makePlanner(private_nh_);
+    near_range_ = nearRangeParamsFromYaml(paramAsYaml(private_nh_, "near_range"));
     if (all_objects_)
     {
       table_params_ = tableGraspParamsFromYaml(private_nh_.hasParam("table_grasps") ? paramAsYaml(private_nh_, "table_grasps")
@@ -279,6 +281,7 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     const std::string plane_problem = fillTablePlane(cloud->header.stamp, view);  // PCL stamps are µs
     if (!plane_problem.empty())
       return publishFailure(plane_problem);
+    addNearRangeBlindSpace(view, near_range_);  // needs the camera pose the cloud carries (zero-copy)
 
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
@@ -337,7 +340,11 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
         continue;
       CloudXYZ::Ptr& cloud = by_label[p.label];
       if (!cloud)
+      {
         cloud = std::make_shared<CloudXYZ>();
+        cloud->sensor_origin_ = objects->sensor_origin_;  // the camera pose, for the blind zone
+        cloud->sensor_orientation_ = objects->sensor_orientation_;
+      }
       cloud->push_back(PointXYZ(p.x, p.y, p.z));
     }
     std::vector<ObjectView> views;
@@ -349,6 +356,7 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
         continue;  // too few points for an object: not one to grasp
       ObjectView view = shared;
       view.cloud = normals.cloud;
+      addNearRangeBlindSpace(view, near_range_);
       views.push_back(view);
       labels.push_back(label);
     }

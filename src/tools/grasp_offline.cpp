@@ -14,6 +14,7 @@
 #include "fast_grasp/grasping/cshape_grasp.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 #include "fast_grasp/grasping/table_grasps.h"
@@ -768,7 +769,11 @@ int run(const Options& options)
         clouds = renderSceneViews(*scene, camera_pose, view);
       std::mt19937 rng(0);
       const Stopwatch perception_watch;
-      const PreparedView prepared = prepareView(clouds, perception, rng);
+      PreparedView prepared = prepareView(clouds, perception, rng);
+      // What the camera was too near to see is blind, not empty (near_range.h), as in the nodelets.
+      addNearRangeBlindSpace(prepared.view, config.near_range);
+      for (ObjectView& object : prepared.objects)
+        addNearRangeBlindSpace(object, config.near_range);
       report.perception_time_s = perception_watch.elapsedSeconds();
       report.sensor_origins = prepared.view.sensor_origins;
       if (!prepared.ok())

@@ -8,6 +8,7 @@
 #include "fast_grasp/grasping/cshape_grasp.h"
 #include "fast_grasp/grasping/fused_grasp.h"
 #include "fast_grasp/grasping/hold_check.h"
+#include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/grasping/principal_axis_grasp.h"
 #include "fast_grasp/grasping/table_grasps.h"
 
@@ -60,6 +61,10 @@ struct HoldCheckConfig
 /// Reads `hold_check:`. Throws std::runtime_error on another planner name or an unknown key.
 HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section);
 
+/// Reads the top-level `near_range:` section (the camera's blind zone, near_range.h). Throws
+/// like the others.
+NearRangeParams nearRangeParamsFromYaml(const YAML::Node& section);
+
 /// The top-level `max_object_extent_m` of grasp_planners.yaml (the root map; a missing key keeps
 /// the default). Throws std::runtime_error on a non-positive or unreadable value.
 PlannerInputLimits plannerInputLimitsFromYaml(const YAML::Node& root);
@@ -76,13 +81,16 @@ struct GraspPlannerConfig
   /// Thesis planners wrapped in HoldCheckedPlanner by makeGraspPlanner; never the fused
   /// planner's pooled ones, which it ranks itself.
   HoldCheckConfig hold_check;
+  /// The camera's blind zone: where each view is built (grasp_offline, the grasp nodelets),
+  /// addNearRangeBlindSpace adds it to the view's obstacles before any planner sees it.
+  NearRangeParams near_range;
 };
 
 /// Gives every planner of `config` the same input limits.
 void setInputLimits(GraspPlannerConfig& config, const PlannerInputLimits& limits);
 
 /// Loads `yaml_path` and maps its `principal_axis:`, `cshape:`, `boundary:`, `concavity:` and
-/// `fused:` sections (any may be absent: defaults), `hold_check:` and the top-level `max_object_extent_m`
+/// `fused:` sections (any may be absent: defaults), `hold_check:`, `near_range:` and the top-level `max_object_extent_m`
 /// (every planner's input_limits). The other top-level keys are the nodelets' shared settings
 /// and are ignored here. Throws std::runtime_error with the file name on a missing or
 /// unparsable file and on any error of the two functions above.

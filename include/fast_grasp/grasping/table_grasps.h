@@ -49,7 +49,7 @@ struct ObjectGrasps
 {
   std::size_t object = 0;  // index into the views planned
   GraspResult result;      // the planner's result; grasps that hit a neighbour removed
-  std::size_t blocked_by_neighbours = 0;
+  std::size_t blocked_by_neighbours = 0;  // or by the view's own obstacles (its blind space, near_range.h)
   float top_height_m = 0.0f;      // highest point above the table (the lowest point without one)
   Eigen::Vector3f centroid = Eigen::Vector3f::Zero();  // of the seen points
   float base_distance_m = 0.0f;   // centroid's distance from the base frame's origin
@@ -66,10 +66,11 @@ struct TableGraspResult
   const ObjectGrasps& chosen() const { return objects.at(order.at(0)); }
 };
 
-/// Plans every view with `planner`, the other views' points and unseen parts within a hand's
-/// reach given to it as ObjectView::obstacles (its hand check fits its grasps among them), then
-/// drops each grasp whose hand, grown by neighbour_clearance_m and swept from the pre-grasp,
-/// would still touch them, and orders the objects. Views must share
+/// Plans every view with `planner`, the other views' points and unseen parts (and obstacles of
+/// their own, a blind space) within a hand's reach added to its ObjectView::obstacles (its hand
+/// check fits its grasps among them), then drops each grasp whose hand, grown by
+/// neighbour_clearance_m and swept from the pre-grasp, would still touch them or the view's own
+/// obstacles, and orders the objects. Views must share
 /// one frame, sensor origins and table plane (one camera frame segmented into objects).
 TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const GraspPlanner& planner,
                                  const GripperModel& gripper, const TableGraspParams& params);

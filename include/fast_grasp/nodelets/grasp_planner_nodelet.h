@@ -98,6 +98,7 @@ private:
   GripperModel gripper_;
   bool all_objects_ = false;
   TableGraspParams table_params_;
+  NearRangeParams near_range_;  // the camera's blind zone, added to every view's obstacles
   NormalParams normal_params_;
   std::vector<std::string> sensor_frames_;
   double tf_timeout_s_ = 0.5;

@@ -1,0 +1,179 @@
+// The camera's blind zone (grasping/near_range.h). A 30 cm bottle standing 0.5 m in front of a
+// camera 0.45 m up is rendered as a depth camera with a 0.5 m minimum range would see it: the
+// points nearer than 0.5 m along the optical axis are dropped, so the view ends where the
+// bottle's top enters the blind zone. Every expectation follows from that geometry: where the
+// cut is, that the blind space lies above it and nearer than the limit, and that no hand the
+// fused planner returns for the cut view would come in through the bottle's invisible top.
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/grasping/near_range.h"
+#include "fast_grasp/grasping/table_grasps.h"
+
+#include "synthetic_views.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace fast_grasp
+{
+namespace
+{
+const Eigen::Vector3d kCamera(0.0, 0.0, 0.45);
+const Eigen::Vector3d kBottleBase(0.42, 0.0, 0.0);
+constexpr double kRadius = 0.035;
+constexpr double kHeight = 0.30;
+constexpr double kMinRange = 0.5;
+
+Eigen::Vector3f opticalAxis()
+{
+  // The camera looks at the bottle's middle.
+  return (kBottleBase + Eigen::Vector3d(0, 0, kHeight / 2) - kCamera).normalized().cast<float>();
+}
+
+/// The bottle as the camera sees it, nearer than `min_range_m` dropped, with the camera pose
+/// on the cloud as CloudPreprocess leaves it, on a table at z = 0.
+ObjectView cutBottleView(double min_range_m)
+{
+  const synthetic::Shape bottle =
+      synthetic::makeCylinder(kBottleBase + Eigen::Vector3d(0, 0, kHeight / 2), Eigen::Vector3d::UnitZ(), kRadius, kHeight);
+  synthetic::ViewParams params;
+  params.viewpoint = kCamera;
+  params.spacing_m = 0.003;
+  const CloudNormal::Ptr seen = synthetic::renderView(bottle, params);
+  CloudNormal::Ptr cut(new CloudNormal);
+  const Eigen::Vector3f axis = opticalAxis();
+  for (const auto& p : seen->points)
+    if ((p.getVector3fMap() - kCamera.cast<float>()).dot(axis) >= static_cast<float>(min_range_m))
+      cut->push_back(p);
+  cut->sensor_origin_ = Eigen::Vector4f(kCamera.x(), kCamera.y(), kCamera.z(), 0.0f);
+  cut->sensor_orientation_ = Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), axis);
+  ObjectView view = synthetic::makeObjectView(cut, kCamera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
+float topOf(const CloudNormal& cloud)
+{
+  float top = -1.0f;
+  for (const auto& p : cloud.points)
+    top = std::max(top, p.z);
+  return top;
+}
+
+NearRangeParams xtion()
+{
+  NearRangeParams params;
+  params.sensor_min_range_m = kMinRange;
+  return params;
+}
+
+TEST(NearRange, BlindSpaceStandsOnTheCutAndNearerThanTheLimit)
+{
+  const ObjectView view = cutBottleView(kMinRange);
+  const float cut_top = topOf(*view.cloud);
+  // The camera looks down at 0.5 m to the bottle's middle: its top half is nearer than 0.5 m.
+  ASSERT_LT(cut_top, 0.25f);
+  ASSERT_GT(cut_top, 0.08f);
+
+  const NearRangeBlindSpace blind =
+      nearRangeBlindSpace(*view.cloud, kCamera.cast<float>(), opticalAxis(), Eigen::Vector3f::UnitZ(), xtion());
+  EXPECT_GE(blind.at_limit, 5u);
+  ASSERT_FALSE(blind.points.empty());
+  // The 0.5 m plane cuts the bottle aslant (its front, nearer the camera, lower than its sides):
+  // the seen points within margin_m of the limit span a band below the top.
+  float lowest_at_limit = 1.0f;
+  for (const auto& p : view.cloud->points)
+    if ((p.getVector3fMap() - kCamera.cast<float>()).dot(opticalAxis()) <= static_cast<float>(kMinRange + 0.02))
+      lowest_at_limit = std::min(lowest_at_limit, p.z);
+  float blind_top = -1.0f;
+  for (const auto& p : blind.points)
+  {
+    EXPECT_LT((p.getVector3fMap() - kCamera.cast<float>()).dot(opticalAxis()), static_cast<float>(kMinRange));
+    blind_top = std::max(blind_top, p.z);
+    // Joined to the cut: up and toward the (higher) camera from the points at the limit.
+    EXPECT_GE(p.z, lowest_at_limit);
+  }
+  // Up to extension_m (15 cm) above the cut, where the bottle's invisible top is.
+  EXPECT_GT(blind_top, cut_top + 0.12f);
+}
+
+TEST(NearRange, NothingAssumedWhenTheObjectIsWithinRangeOrTheRangeIsOff)
+{
+  // The same bottle with a 0.3 m minimum range is seen whole: no point is near that limit.
+  const ObjectView whole = cutBottleView(0.3);
+  EXPECT_NEAR(topOf(*whole.cloud), kHeight, 0.01);
+  NearRangeParams params = xtion();
+  params.sensor_min_range_m = 0.3;
+  EXPECT_TRUE(nearRangeBlindSpace(*whole.cloud, kCamera.cast<float>(), opticalAxis(), Eigen::Vector3f::UnitZ(), params)
+                  .points.empty());
+  params.sensor_min_range_m = 0.0;
+  const ObjectView cut = cutBottleView(kMinRange);
+  EXPECT_TRUE(nearRangeBlindSpace(*cut.cloud, kCamera.cast<float>(), opticalAxis(), Eigen::Vector3f::UnitZ(), params)
+                  .points.empty());
+}
+
+TEST(NearRange, AddedToTheObstaclesOnlyWithTheCameraPose)
+{
+  ObjectView view = cutBottleView(kMinRange);
+  auto neighbour = std::make_shared<CloudXYZ>();
+  neighbour->push_back(PointXYZ(1.0f, 2.0f, 3.0f));
+  view.obstacles = neighbour;
+  const std::size_t at_limit = addNearRangeBlindSpace(view, xtion());
+  EXPECT_GE(at_limit, 5u);
+  ASSERT_TRUE(view.obstacles);
+  EXPECT_GT(view.obstacles->size(), 1u);
+  EXPECT_EQ(view.obstacles->points.front().getVector3fMap(), neighbour->points.front().getVector3fMap());
+
+  // A cloud without a camera pose (it crossed a process boundary): the blind zone is unknown.
+  ObjectView posed_nowhere = cutBottleView(kMinRange);
+  auto bare = std::make_shared<CloudNormal>(*posed_nowhere.cloud);
+  bare->sensor_orientation_ = Eigen::Quaternionf::Identity();
+  posed_nowhere.cloud = bare;
+  EXPECT_EQ(addNearRangeBlindSpace(posed_nowhere, xtion()), 0u);
+  EXPECT_FALSE(posed_nowhere.obstacles);
+}
+
+TEST(NearRange, FusedHandsStayOutOfTheInvisibleTop)
+{
+  const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  ASSERT_GT(config.near_range.sensor_min_range_m, 0.0);
+  const auto planner = makeGraspPlanner("fused", config);
+  ASSERT_TRUE(planner);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+
+  ObjectView view = cutBottleView(kMinRange);
+  const float cut_top = topOf(*view.cloud);
+  // The bottle's invisible part: its surface above the cut, every 5 mm.
+  Eigen::Matrix3Xf invisible(3, 0);
+  std::vector<Eigen::Vector3f> samples;
+  for (double z = cut_top + 0.005; z <= kHeight; z += 0.005)
+    for (int k = 0; k < 72; ++k)
+    {
+      const double a = 2.0 * M_PI * k / 72.0;
+      samples.emplace_back(static_cast<float>(kBottleBase.x() + kRadius * std::cos(a)),
+                           static_cast<float>(kBottleBase.y() + kRadius * std::sin(a)), static_cast<float>(z));
+    }
+  invisible.resize(3, static_cast<Eigen::Index>(samples.size()));
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    invisible.col(static_cast<Eigen::Index>(i)) = samples[i];
+
+  // What the blind space is for: without it the best grasps pinch the cut's rim from above and
+  // the hand closes around the invisible top.
+  const GraspResult unaware = planner->plan(view, gripper);
+  ASSERT_TRUE(unaware.ok()) << unaware.message;
+  EXPECT_TRUE(handSweepHits(unaware.grasps.front().pose, gripper, invisible, 0.0, 0.0));
+
+  addNearRangeBlindSpace(view, config.near_range);
+  const GraspResult result = planner->plan(view, gripper);
+  ASSERT_TRUE(result.ok()) << result.message;
+  // The open hand at the grasp (no sweep, no clearance): a hand that would close around the
+  // invisible top, or land on it, is not returned.
+  for (const GraspCandidate& g : result.grasps)
+    EXPECT_FALSE(handSweepHits(g.pose, gripper, invisible, 0.0, 0.0))
+        << "grasp at z " << g.pose.translation().z() << " (cut at " << cut_top << ") reaches into the bottle's top";
+}
+
+}  // namespace
+}  // namespace fast_grasp
