@@ -281,7 +281,12 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     const std::string plane_problem = fillTablePlane(cloud->header.stamp, view);  // PCL stamps are µs
     if (!plane_problem.empty())
       return publishFailure(plane_problem);
-    addNearRangeBlindSpace(view, near_range_);  // needs the camera pose the cloud carries (zero-copy)
+    // Needs the camera pose the cloud carries (zero-copy from CloudPreprocess).
+    const std::size_t at_near_limit = addNearRangeBlindSpace(view, near_range_);
+    const std::string cut_note = at_near_limit == 0 ? std::string()
+                                                    : "; the object reaches the camera's near limit (" +
+                                                          std::to_string(at_near_limit) +
+                                                          " points): hands kept out of what it hides beyond";
 
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
@@ -292,12 +297,13 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     {
       const GraspCandidate& best = result.grasps.front();
       summary << result.grasps.size() << " grasps from " << check.finite_points << " points in "
-              << result.compute_time_s * 1e3 << " ms; best width " << best.width_m << " m, score " << best.score;
+              << result.compute_time_s * 1e3 << " ms; best width " << best.width_m << " m, score " << best.score
+              << cut_note;
       status_.ok(summary.str());
     }
     else
     {
-      status_.warn(statusText(result));
+      status_.warn(statusText(result) + cut_note);
     }
   }
   catch (const std::exception& e)
@@ -349,6 +355,7 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
     }
     std::vector<ObjectView> views;
     std::vector<std::uint32_t> labels;
+    std::size_t objects_at_near_limit = 0;
     for (const auto& [label, cloud] : by_label)
     {
       const NormalResult normals = estimateNormals(cloud, shared.sensor_origins.front(), normal_params_);
@@ -356,7 +363,7 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
         continue;  // too few points for an object: not one to grasp
       ObjectView view = shared;
       view.cloud = normals.cloud;
-      addNearRangeBlindSpace(view, near_range_);
+      objects_at_near_limit += addNearRangeBlindSpace(view, near_range_) > 0 ? 1 : 0;
       views.push_back(view);
       labels.push_back(label);
     }
@@ -377,6 +384,8 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
     std::ostringstream summary;
     summary << table.order.size() << " of " << views.size() << " objects with a grasp ("
             << toString(table_params_.object_choice) << ")";
+    if (objects_at_near_limit > 0)
+      summary << "; " << objects_at_near_limit << " reach the camera's near limit: hands kept out of what they hide beyond";
     if (table.ok())
     {
       const ObjectGrasps& first = table.chosen();

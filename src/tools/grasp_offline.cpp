@@ -483,6 +483,9 @@ struct Report
   double compute_time_s = 0.0;
   double perception_time_s = 0.0;
   std::size_t candidates_evaluated = 0;
+  /// Seen points of the object at the camera's near limit: > 0 when it was cut there and its
+  /// blind space kept hands out (near_range.h).
+  std::size_t points_at_near_limit = 0;
   std::vector<Eigen::Vector3f> sensor_origins;
   std::optional<Eigen::Vector4f> table_plane;
   struct ObjectSummary
@@ -504,6 +507,7 @@ struct Report
     std::string message;
     std::size_t grasps = 0;
     std::size_t blocked_by_neighbours = 0;
+    std::size_t points_at_near_limit = 0;
   };
   std::vector<TableObject> objects;
   std::string object_choice;
@@ -562,6 +566,7 @@ void writeJson(std::ostream& out, const Report& report)
   out << "  \"compute_time_s\": " << jsonNumber(report.compute_time_s) << ",\n";
   out << "  \"perception_time_s\": " << jsonNumber(report.perception_time_s) << ",\n";
   out << "  \"candidates_evaluated\": " << report.candidates_evaluated << ",\n";
+  out << "  \"points_at_near_limit\": " << report.points_at_near_limit << ",\n";
   out << "  \"sensor_origins\": [";
   for (std::size_t i = 0; i < report.sensor_origins.size(); ++i)
     out << (i ? ", " : "") << jsonArray(report.sensor_origins[i]);
@@ -581,7 +586,8 @@ void writeJson(std::ostream& out, const Report& report)
       out << (i ? ",\n" : "\n") << "    {\"object\": " << i << ", \"points\": " << o.points
           << ", \"centroid\": " << jsonArray(o.centroid) << ", \"top_height_m\": " << jsonNumber(o.top_height_m)
           << ", \"status\": " << jsonString(o.status) << ", \"message\": " << jsonString(o.message)
-          << ", \"grasps\": " << o.grasps << ", \"blocked_by_neighbours\": " << o.blocked_by_neighbours << "}";
+          << ", \"grasps\": " << o.grasps << ", \"blocked_by_neighbours\": " << o.blocked_by_neighbours
+          << ", \"points_at_near_limit\": " << o.points_at_near_limit << "}";
     }
     out << (report.objects.empty() ? "],\n" : "\n  ],\n");
   }
@@ -663,8 +669,8 @@ bool writeReport(const Options& options, const Report& report)
 /// --all-objects: every object planned (table_grasps.h), the grasps of all objects written in
 /// pick order, each with its object; the summary and --save-object are the first object's.
 int planAllObjects(const Options& options, const PreparedView& prepared, const GraspPlanner& planner,
-                   const TableGraspParams& params, const GripperModel& gripper, Report& report,
-                   const std::function<int(const Failure&)>& finishFailure)
+                   const std::vector<std::size_t>& points_at_near_limit, const TableGraspParams& params,
+                   const GripperModel& gripper, Report& report, const std::function<int(const Failure&)>& finishFailure)
 {
   const TableGraspResult table = planTableGrasps(prepared.objects, planner, gripper, params);
   report.compute_time_s = table.compute_time_s;
@@ -681,6 +687,7 @@ int planAllObjects(const Options& options, const PreparedView& prepared, const G
     summary.message = object.result.message;
     summary.grasps = object.result.grasps.size();
     summary.blocked_by_neighbours = object.blocked_by_neighbours;
+    summary.points_at_near_limit = points_at_near_limit.at(object.object);
     report.candidates_evaluated += object.result.candidates_evaluated;
     report.objects.push_back(summary);
   }
@@ -771,9 +778,10 @@ int run(const Options& options)
       const Stopwatch perception_watch;
       PreparedView prepared = prepareView(clouds, perception, rng);
       // What the camera was too near to see is blind, not empty (near_range.h), as in the nodelets.
-      addNearRangeBlindSpace(prepared.view, config.near_range);
+      report.points_at_near_limit = addNearRangeBlindSpace(prepared.view, config.near_range);
+      std::vector<std::size_t> points_at_near_limit;
       for (ObjectView& object : prepared.objects)
-        addNearRangeBlindSpace(object, config.near_range);
+        points_at_near_limit.push_back(addNearRangeBlindSpace(object, config.near_range));
       report.perception_time_s = perception_watch.elapsedSeconds();
       report.sensor_origins = prepared.view.sensor_origins;
       if (!prepared.ok())
@@ -788,7 +796,7 @@ int run(const Options& options)
         report.table_plane = prepared.view.table_plane;
       report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
       if (options.all_objects)
-        return planAllObjects(options, prepared, *planner, config.table_grasps, gripper, report,
+        return planAllObjects(options, prepared, *planner, points_at_near_limit, config.table_grasps, gripper, report,
                               [&](const Failure& f) { return finishFailure(f); });
       // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
       if (!options.object_pcd_path.empty() &&
