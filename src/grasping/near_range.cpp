@@ -44,29 +44,35 @@ NearRangeBlindSpace nearRangeBlindSpace(const CloudNormal& cloud, const Eigen::V
   const auto limit = static_cast<float>(params.sensor_min_range_m);
   const float deepest = limit + static_cast<float>(params.margin_m);
 
-  std::vector<Eigen::Vector3f> at_limit;
-  for (const auto& p : cloud.points)
-  {
-    const Eigen::Vector3f q = p.getVector3fMap();
-    if (!q.allFinite())
-      continue;
-    const float depth = (q - sensor_origin).dot(axis);
-    if (depth <= deepest)  // nearer than the limit cannot be seen, but a noisy point may read so
-      at_limit.push_back(q);
-  }
-  blind.at_limit = at_limit.size();
-  if (at_limit.size() < params.min_points)
-    return blind;
-
   const auto step = static_cast<float>(params.step_m);
-  const int steps = static_cast<int>(std::floor(params.extension_m / params.step_m + 1e-6));
-  std::unordered_set<std::int64_t> occupied;
   // One point per step_m cube: the 21-bit signed cell indices of x, y, z packed into 63 bits
   // (±1048576 cells of >= 1 mm: ±1 km).
   const auto cellKey = [step](const Eigen::Vector3f& q) {
     const auto cell = [step](float v) { return (static_cast<std::int64_t>(std::floor(v / step)) + (1 << 20)) & 0x1FFFFF; };
     return (cell(q.x()) << 42) | (cell(q.y()) << 21) | cell(q.z());
   };
+
+  // The points at the limit, one per cube: a dense cloud (max_input_points) must not multiply
+  // into millions of copies below.
+  std::vector<Eigen::Vector3f> at_limit;
+  std::unordered_set<std::int64_t> seeds;
+  for (const auto& p : cloud.points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    const float depth = (q - sensor_origin).dot(axis);
+    if (depth > deepest)  // nearer than the limit cannot be seen, but a noisy point may read so
+      continue;
+    ++blind.at_limit;
+    if (seeds.insert(cellKey(q)).second)
+      at_limit.push_back(q);
+  }
+  if (blind.at_limit < params.min_points)
+    return blind;
+
+  const int steps = static_cast<int>(std::floor(params.extension_m / params.step_m + 1e-6));
+  std::unordered_set<std::int64_t> occupied;
   const auto add = [&](const Eigen::Vector3f& q) {
     // Only space nearer than the limit is blind: farther, the camera would have seen the object.
     if ((q - sensor_origin).dot(axis) >= limit)
