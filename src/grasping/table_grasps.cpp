@@ -146,7 +146,7 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
     }
     // The others' obstacles and the view's own (its blind space), in one matrix: the hand
     // comes in through them from the pre-grasp, which the planner's check at the grasp misses.
-    std::vector<Eigen::Vector3f> own;
+    std::vector<Eigen::Vector3f> own;  // finite points only, as obstacles[j]
     if (views[i].obstacles)
       appendPoints(*views[i].obstacles, own);
     std::size_t others = own.size();

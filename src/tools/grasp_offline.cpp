@@ -777,11 +777,18 @@ int run(const Options& options)
       std::mt19937 rng(0);
       const Stopwatch perception_watch;
       PreparedView prepared = prepareView(clouds, perception, rng);
-      // What the camera was too near to see is blind, not empty (near_range.h), as in the nodelets.
-      report.points_at_near_limit = addNearRangeBlindSpace(prepared.view, config.near_range);
+      // What the camera was too near to see is blind, not empty (near_range.h), as in the nodelets:
+      // added to the views that get planned (with --all-objects, objects[0] is the target's).
       std::vector<std::size_t> points_at_near_limit;
-      for (ObjectView& object : prepared.objects)
-        points_at_near_limit.push_back(addNearRangeBlindSpace(object, config.near_range));
+      if (options.all_objects)
+      {
+        for (ObjectView& object : prepared.objects)
+          points_at_near_limit.push_back(addNearRangeBlindSpace(object, config.near_range));
+        if (!points_at_near_limit.empty())
+          report.points_at_near_limit = points_at_near_limit.front();
+      }
+      else
+        report.points_at_near_limit = addNearRangeBlindSpace(prepared.view, config.near_range);
       report.perception_time_s = perception_watch.elapsedSeconds();
       report.sensor_origins = prepared.view.sensor_origins;
       if (!prepared.ok())
