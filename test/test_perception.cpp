@@ -862,6 +862,110 @@ TEST(TableSegmentation, AnObjectAnotherHidesInTheMiddleIsOneClusterAndASeenGapKe
   EXPECT_EQ(result.clusters.size(), 3u);
 }
 
+namespace
+{
+/// A round part lying along x on the table (its axis `axis_height` up), from `x0` to `x1` at
+/// `y`: the side the camera at `eye` sees and, when `base`, the disc closing its x0 end.
+void addLyingRound(CloudXYZ& cloud, float x0, float x1, float y, float radius, float axis_height, float step,
+                   bool base, const Eigen::Vector3f& eye)
+{
+  const int around = static_cast<int>(2.0f * static_cast<float>(M_PI) * radius / step);
+  for (int a = 0; a < around; ++a)
+  {
+    const float angle = 2.0f * static_cast<float>(M_PI) * static_cast<float>(a) / static_cast<float>(around);
+    const Eigen::Vector3f outward(0.0f, std::cos(angle), std::sin(angle));
+    for (float x = x0; x <= x1; x += step)
+    {
+      const Eigen::Vector3f p = Eigen::Vector3f(x, y, axis_height) + radius * outward;
+      if ((eye - p).dot(outward) > 0.0f)
+        cloud.push_back(PointXYZ(p.x(), p.y(), p.z()));
+    }
+  }
+  if (base && eye.x() < x0)
+    for (float v = -radius; v <= radius; v += step)
+      for (float w = -radius; w <= radius; w += step)
+        if (v * v + w * w <= radius * radius)
+          cloud.push_back(PointXYZ(x0, y + v, axis_height + w));
+}
+}  // namespace
+
+TEST(TableSegmentation, ALyingBottlesNeckCutOffAtItsHiddenShoulderIsJoinedToItsBody)
+{
+  // A wine bottle lying along x, seen from behind its base: body 20 cm long, radius 3.8 cm; its
+  // 1.5 cm neck starts 5 cm past the body (the shoulder sloping away, hidden by the body's top),
+  // so Euclidean clustering (2 cm) gives two clusters. The neck hangs clear of the table on the
+  // body's axis, between its mid-height and its top: one object.
+  const Eigen::Vector3f eye(0.1f, -0.1f, 0.5f);
+  auto scene = [&](auto&& add_objects) {
+    std::mt19937 rng(5);
+    CloudXYZ objects, table;
+    add_objects(objects, rng);
+    addPatch(table, Eigen::Vector3f(0.25f, -0.3f, 0.0f), Eigen::Vector3f::UnitX(), Eigen::Vector3f::UnitY(), 0.6f, 0.6f,
+             0.005f, 0.001f, rng);
+    auto cloud = std::make_shared<CloudXYZ>(visibleFrom(eye, table, objects));
+    *cloud += objects;
+    finish(*cloud);
+    aimCamera(*cloud, eye, Eigen::Vector3f(0.5f, 0.0f, 0.04f));
+    return cloud;
+  };
+  auto bottle = [&](float neck_y) {
+    return [&eye, neck_y](CloudXYZ& cloud, std::mt19937&) {
+      addLyingRound(cloud, 0.35f, 0.55f, 0.0f, 0.038f, 0.038f, 0.005f, true, eye);
+      addLyingRound(cloud, 0.60f, 0.68f, neck_y, 0.015f, 0.038f, 0.005f, false, eye);
+    };
+  };
+  TableSegmentationParams params;
+  params.target = TargetCluster::Largest;
+  TableSegmentationParams apart = params;
+  EXPECT_FALSE(apart.join_lying_necks) << "off by default";
+  params.join_lying_necks = true;
+
+  const auto lying = scene(bottle(0.0f));
+  TableSegmentationResult result = segmentTable(lying, apart);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  ASSERT_EQ(result.clusters.size(), 2u) << "the hidden shoulder parts body and neck";
+  result = segmentTable(lying, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  ASSERT_EQ(result.clusters.size(), 1u);
+  EXPECT_NEAR(result.object_max.x(), 0.68f, 0.006f) << "the neck's tip is the object's";
+  EXPECT_NEAR(result.object_min.x(), 0.35f, 0.006f);
+  // The same with the concave split on (the clutter pipeline's setting).
+  TableSegmentationParams split = params;
+  split.split_concave_creases = true;
+  result = segmentTable(lying, split);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 1u);
+
+  // A neck 8 cm off the body's axis (beyond its 3.8 cm half-width) is something else.
+  const auto off_axis = scene(bottle(0.08f));
+  result = segmentTable(off_axis, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 2u);
+
+  // A small box standing on the table just past the body's end, on its axis: it reaches the
+  // table, so it is an object of its own.
+  const auto box_past_end = scene([&eye](CloudXYZ& cloud, std::mt19937& rng) {
+    addLyingRound(cloud, 0.35f, 0.55f, 0.0f, 0.038f, 0.038f, 0.005f, true, eye);
+    addBox(cloud, Eigen::Vector2f(0.62f, 0.0f), 0.0f, Eigen::Vector3f(0.03f, 0.03f, 0.05f), 0.005f, rng, eye);
+  });
+  result = segmentTable(box_past_end, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 2u);
+
+  // A box resting higher than the body's top past its end (on something hidden) is not a neck.
+  const auto high_box = scene([&eye](CloudXYZ& cloud, std::mt19937& rng) {
+    addLyingRound(cloud, 0.35f, 0.55f, 0.0f, 0.038f, 0.038f, 0.005f, true, eye);
+    addBox(cloud, Eigen::Vector2f(0.63f, 0.0f), 0.06f, Eigen::Vector3f(0.03f, 0.03f, 0.03f), 0.005f, rng, eye);
+  });
+  result = segmentTable(high_box, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 2u);
+
+  TableSegmentationParams bad = params;
+  bad.neck_join.max_gap_m = -0.01;
+  EXPECT_FALSE(segmentTable(lying, bad).ok());
+}
+
 TEST(TableSegmentation, BadInputAndMissingPartsGiveTypedFailures)
 {
   std::mt19937 rng(5);

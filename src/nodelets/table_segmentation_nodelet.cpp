@@ -85,6 +85,10 @@ std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
   pnh.param("occlusion_sample_step_m", params_.occlusion_join.sample_step_m, params_.occlusion_join.sample_step_m);
   pnh.param("occlusion_hidden_margin_m", params_.occlusion_join.hidden_margin_m, params_.occlusion_join.hidden_margin_m);
   pnh.param("occlusion_angular_cell", params_.occlusion_join.angular_cell, params_.occlusion_join.angular_cell);
+  pnh.param("join_lying_necks", params_.join_lying_necks, params_.join_lying_necks);
+  pnh.param("neck_min_elongation", params_.neck_join.min_elongation, params_.neck_join.min_elongation);
+  pnh.param("neck_max_gap_m", params_.neck_join.max_gap_m, params_.neck_join.max_gap_m);
+  pnh.param("neck_standing_height_m", params_.neck_join.standing_height_m, params_.neck_join.standing_height_m);
   pnh.param("merge_stacked_clusters", params_.merge_stacked_clusters, params_.merge_stacked_clusters);
   pnh.param("stacked_overlap_fraction", params_.stacked_overlap_fraction, params_.stacked_overlap_fraction);
   pnh.param("max_input_points", max_input_points_, max_input_points_);

@@ -98,6 +98,10 @@ std::string validateParams(const TableSegmentationParams& params)
       !(join.sample_step_m >= 1e-4) || !(join.hidden_margin_m >= 0.0) || !(join.angular_cell >= 1e-4 && join.angular_cell <= 1.0))
     return "occlusion join: need max_gap_m in [0, 10], max_top_difference_m >= 0, sample_step_m >= 1e-4, "
            "hidden_margin_m >= 0, angular_cell in [1e-4, 1]";
+  const NeckJoinParams& neck = params.neck_join;
+  if (!(neck.min_elongation >= 0.0 && neck.min_elongation <= 100.0) || !(neck.max_gap_m >= 0.0 && neck.max_gap_m <= 1.0) ||
+      !(neck.standing_height_m >= 0.0 && neck.standing_height_m <= 1.0))
+    return "neck join: need min_elongation in [0, 100], max_gap_m in [0, 1], standing_height_m in [0, 1]";
   if (!(params.stacked_overlap_fraction > 0.0 && params.stacked_overlap_fraction <= 1.0))
     return "stacked_overlap_fraction must be in (0, 1]";
   if (!params.reference_point_m.allFinite() || !params.target_point_m.allFinite())
@@ -332,6 +336,16 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
     std::vector<int> joined_into;
     result.clusters = joinOccludedPieces(*cloud, result.clusters, cloud->sensor_origin_.head<3>(),
                                          cloud->sensor_orientation_, plane, params.occlusion_join, &joined_into);
+    std::vector<int> joined_group(result.clusters.size(), -1);
+    for (std::size_t c = 0; c < joined_into.size(); ++c)
+      if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)
+        joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
+    gap_group = joined_group;
+  }
+  if (params.join_lying_necks && result.clusters.size() >= 2)
+  {
+    std::vector<int> joined_into;
+    result.clusters = joinNecksToLyingBodies(*cloud, result.clusters, plane, params.neck_join, &joined_into);
     std::vector<int> joined_group(result.clusters.size(), -1);
     for (std::size_t c = 0; c < joined_into.size(); ++c)
       if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)

@@ -1,0 +1,131 @@
+#include "fast_grasp/perception/neck_join.h"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace fast_grasp
+{
+namespace
+{
+/// What the rule needs of one cluster, in the table's frame (two horizontal axes, height).
+struct Shape
+{
+  float low = std::numeric_limits<float>::infinity();
+  float top = -std::numeric_limits<float>::infinity();
+  std::vector<Eigen::Vector2f> footprint;  // each point's horizontal coordinates
+  Eigen::Vector2f mean = Eigen::Vector2f::Zero();
+};
+}  // namespace
+
+std::vector<pcl::PointIndices> joinNecksToLyingBodies(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
+                                                      const Eigen::Vector4f& plane, const NeckJoinParams& params,
+                                                      std::vector<int>* joined_into)
+{
+  const std::size_t n = clusters.size();
+  const float normal_length = plane.head<3>().norm();
+  std::vector<int> body_of(n, -1);
+  if (params.min_elongation > 0.0 && n >= 2 && normal_length > 0.0f)
+  {
+    const Eigen::Vector3f up = plane.head<3>() / normal_length;
+    const float offset = plane[3] / normal_length;
+    const Eigen::Vector3f e1 = up.unitOrthogonal(), e2 = up.cross(e1);
+    std::vector<Shape> shapes(n);
+    for (std::size_t c = 0; c < n; ++c)
+    {
+      Shape& shape = shapes[c];
+      for (const auto i : clusters[c].indices)
+      {
+        const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(i)].getVector3fMap();
+        const float height = up.dot(p) + offset;
+        shape.low = std::min(shape.low, height);
+        shape.top = std::max(shape.top, height);
+        shape.footprint.emplace_back(e1.dot(p), e2.dot(p));
+        shape.mean += shape.footprint.back();
+      }
+      if (!shape.footprint.empty())
+        shape.mean /= static_cast<float>(shape.footprint.size());
+    }
+    const float standing = static_cast<float>(params.standing_height_m);
+    for (std::size_t body = 0; body < n; ++body)
+    {
+      const Shape& b = shapes[body];
+      if (b.footprint.size() < 3 || !(b.low <= standing))
+        continue;
+      Eigen::Matrix2f covariance = Eigen::Matrix2f::Zero();
+      for (const auto& q : b.footprint)
+        covariance += (q - b.mean) * (q - b.mean).transpose();
+      covariance /= static_cast<float>(b.footprint.size());
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> spread(covariance);
+      const float across_sd = std::sqrt(std::max(spread.eigenvalues()[0], 0.0f));
+      const float along_sd = std::sqrt(std::max(spread.eigenvalues()[1], 0.0f));
+      if (!(along_sd >= static_cast<float>(params.min_elongation) * across_sd))
+        continue;
+      const Eigen::Vector2f axis = spread.eigenvectors().col(1);
+      const Eigen::Vector2f across_axis(-axis.y(), axis.x());
+      // Points spread evenly across a width have sqrt(3) standard deviations to its edge.
+      const float half_width = std::sqrt(3.0f) * across_sd;
+      for (std::size_t neck = 0; neck < n; ++neck)
+      {
+        const Shape& k = shapes[neck];
+        if (neck == body || body_of[neck] >= 0 || k.footprint.empty() || k.footprint.size() >= b.footprint.size() ||
+            !(k.low > standing) || !(k.top < b.top && k.top > 0.5f * b.top))
+          continue;
+        const Eigen::Vector2f from_body = k.mean - b.mean;
+        const float side = from_body.dot(axis) >= 0.0f ? 1.0f : -1.0f;
+        if (std::abs(from_body.dot(across_axis)) > half_width)
+          continue;
+        float body_end = -std::numeric_limits<float>::infinity();
+        for (const auto& q : b.footprint)
+          body_end = std::max(body_end, side * (q - b.mean).dot(axis));
+        float neck_start = std::numeric_limits<float>::infinity();
+        for (const auto& q : k.footprint)
+          neck_start = std::min(neck_start, side * (q - b.mean).dot(axis));
+        const float neck_middle = side * from_body.dot(axis);
+        if (neck_middle > body_end && neck_start - body_end <= static_cast<float>(params.max_gap_m))
+          body_of[neck] = static_cast<int>(body);
+      }
+    }
+  }
+  // A neck joins its body; a body lies on the table and a neck does not, so no body is itself
+  // a neck and one pass does.
+  std::vector<pcl::PointIndices> joined;
+  std::vector<int> output_of(n, -1);
+  for (std::size_t c = 0; c < n; ++c)
+    if (body_of[c] < 0)
+    {
+      output_of[c] = static_cast<int>(joined.size());
+      joined.push_back(clusters[c]);
+    }
+  for (std::size_t c = 0; c < n; ++c)
+    if (output_of[c] < 0)
+    {
+      output_of[c] = output_of[static_cast<std::size_t>(body_of[c])];
+      auto& into = joined[static_cast<std::size_t>(output_of[c])].indices;
+      into.insert(into.end(), clusters[c].indices.begin(), clusters[c].indices.end());
+    }
+  std::vector<std::size_t> order(joined.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return joined[a].indices.size() > joined[b].indices.size(); });
+  std::vector<int> rank(joined.size());
+  std::vector<pcl::PointIndices> out;
+  out.reserve(joined.size());
+  for (std::size_t r = 0; r < order.size(); ++r)
+  {
+    rank[order[r]] = static_cast<int>(r);
+    out.push_back(std::move(joined[order[r]]));
+  }
+  if (joined_into)
+  {
+    joined_into->resize(n);
+    for (std::size_t c = 0; c < n; ++c)
+      (*joined_into)[c] = rank[static_cast<std::size_t>(output_of[c])];
+  }
+  return out;
+}
+
+}  // namespace fast_grasp
