@@ -206,6 +206,23 @@ TEST(LyingCylinder, TheOpenHandsDepthInTheCylinderIsTheRadiusLessItsLeastDistanc
   ASSERT_TRUE(through_depth.has_value());
   EXPECT_NEAR(*through_depth, 0.033, 1e-5);  // the palm box contains the axis
 
+  // Centred over the axis but closing 45 deg off it: across the axis (>= 30 deg), and the
+  // chord it must span is 1.4 diameters. Each finger's inner face is 4.25 cm out along the
+  // closing line and the finger 2.2 cm wide across it, so its nearest corner lies
+  // (4.25 - 1.1) cm x cos 45 deg = 2.23 cm from the axis in the cross-section, at heights the
+  // finger spans (2.7-6.7 cm, the axis at 3.3 cm): 1.07 cm inside the can.
+  GraspCandidate diagonal;
+  const double c45 = std::sqrt(0.5);
+  diagonal.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.047), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(c45, c45, 0));
+  const auto diagonal_depth = openHandDepthInCylinder(diagonal, gripper, can, opening, approach_m);
+  ASSERT_TRUE(diagonal_depth.has_value()) << "45 deg off the axis is across it";
+  EXPECT_NEAR(*diagonal_depth, 0.033 - c45 * (0.0425 - 0.011), 1e-4);
+  // 20 deg off the axis: along it (the object's length), not across.
+  GraspCandidate shallow = diagonal;
+  shallow.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.047), Eigen::Vector3d(0, 0, -1),
+                               Eigen::Vector3d(std::sin(20.0 * M_PI / 180.0), std::cos(20.0 * M_PI / 180.0), 0));
+  EXPECT_FALSE(openHandDepthInCylinder(shallow, gripper, can, opening, approach_m).has_value());
+
   // End-on grasps and no cylinder: not across an axis.
   GraspCandidate end_on;
   end_on.pose = makeGraspPose(Eigen::Vector3d(0.0, -0.08, 0.033), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 0, 0));

@@ -78,7 +78,7 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
 
 /// How far the fingertips of `grasp` pass the axis of `cylinder`, measured along the grasp's
 /// approach projected into the cylinder's cross-section (negative: they stop short). Empty
-/// when the grasp does not close across the axis (its closing direction less than 60 deg from
+/// when the grasp does not close across the axis (its closing direction less than 30 deg from
 /// the axis, or its approach less than 45 deg from it: an end-on grasp) or nothing was found.
 std::optional<float> fingertipReachPastAxis(const GraspCandidate& grasp, const GripperModel& gripper,
                                             const LyingCylinder& cylinder);
