@@ -323,6 +323,25 @@ TEST(HoldCheck, GraspsThatWouldDropALyingCanAreDroppedTheRestKeepTheirOrder)
   EXPECT_NE(result.message.find("and 1 whose open hand lands on its hidden side"), std::string::npos) << result.message;
 }
 
+TEST(HoldCheck, ADiagonalGraspOverALyingCanIsDroppedASquareOneKept)
+{
+  // The can along y (radius 3.4 cm, axis 3.4 cm up), both hands centred over its axis, the tips
+  // 4 mm past it. Closing square to the axis the open fingers (4.25 cm out) clear the can;
+  // closing 45 deg off it they come down 2.2 cm from the axis, on the can (a chord of 1.4
+  // diameters to span). Until session 24 the diagonal one counted as end-on and was kept.
+  const ObjectView view = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
+  const double c45 = std::sqrt(0.5);
+  GraspResult given;
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.05 }, { 0, 0, -1 }, { c45, c45, 0 }, 0.9));
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.05 }, { 0, 0, -1 }, { 1, 0, 0 }, 0.8));
+  const HoldCheckedPlanner checked(std::make_unique<GivenGrasps>(given), holdCheck());
+  const GraspResult result = checked.plan(view, synthetic::robotiqLikeGripper());
+  ASSERT_TRUE(result.ok()) << result.message;
+  ASSERT_EQ(result.grasps.size(), 1u) << result.message;
+  EXPECT_DOUBLE_EQ(result.grasps[0].score, 0.8);
+  EXPECT_NE(result.message.find("and 1 whose open hand lands on its hidden side"), std::string::npos) << result.message;
+}
+
 TEST(HoldCheck, WhenEveryGraspWouldDropTheCanThePlannerSaysWhyAndKeepsItsNextView)
 {
   const ObjectView view = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
