@@ -331,26 +331,26 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
     for (const auto& piece : result.clusters)
       gap_group.push_back(euclidean_of[static_cast<std::size_t>(piece.indices.front())]);
   }
+  // After a join, each output cluster keeps the gap group of the first input cluster it holds.
+  auto followJoins = [&](const std::vector<int>& joined_into) {
+    std::vector<int> joined_group(result.clusters.size(), -1);
+    for (std::size_t c = 0; c < joined_into.size(); ++c)
+      if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)
+        joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
+    gap_group = joined_group;
+  };
   if (params.join_occluded_pieces && result.clusters.size() >= 3)
   {
     std::vector<int> joined_into;
     result.clusters = joinOccludedPieces(*cloud, result.clusters, cloud->sensor_origin_.head<3>(),
                                          cloud->sensor_orientation_, plane, params.occlusion_join, &joined_into);
-    std::vector<int> joined_group(result.clusters.size(), -1);
-    for (std::size_t c = 0; c < joined_into.size(); ++c)
-      if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)
-        joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
-    gap_group = joined_group;
+    followJoins(joined_into);
   }
   if (params.join_lying_necks && result.clusters.size() >= 2)
   {
     std::vector<int> joined_into;
     result.clusters = joinNecksToLyingBodies(*cloud, result.clusters, plane, params.neck_join, &joined_into);
-    std::vector<int> joined_group(result.clusters.size(), -1);
-    for (std::size_t c = 0; c < joined_into.size(); ++c)
-      if (joined_group[static_cast<std::size_t>(joined_into[c])] < 0)
-        joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
-    gap_group = joined_group;
+    followJoins(joined_into);
   }
   auto fillScene = [&]() {
     std::vector<bool> in_object(cloud->size(), false);

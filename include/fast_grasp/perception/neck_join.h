@@ -3,12 +3,14 @@
 //
 // A bottle lying with its neck away from the camera shows a gap at its shoulder: the body's top
 // hides the shoulder sloping down behind it, so the neck comes out as a cluster of its own (or,
-// with the concave split, a piece of its own). The fused planner took that 4 cm neck for a small
-// object and closed on it, and the body's weight levered the bottle out of the pads (clutter
-// training piles, session 24: tables 3 and 15). A neck is recognisable from one view: it hangs
-// clear of the table, just beyond the end of a neighbour that lies on the table and is long and
-// level, on that neighbour's long axis (within its half-width), with its top between the
-// neighbour's mid-height and its top (a neck is centred on the body's axis and narrower).
+// with the concave split, a piece of its own), and the object list holds a 4 cm "object" that is
+// part of a bottle (clutter training piles, session 24: tables 3 and 15). A neck is recognisable
+// from one view: it hangs clear of the table, just beyond the end of a neighbour that lies on the
+// table and is long and level, on that neighbour's long axis (within its half-width), with its
+// top between the neighbour's mid-height and its top (a neck is centred on the body's axis and
+// narrower).
+// TableSegmentationParams::join_lying_necks turns it on; it is off by default because grasps did
+// not hold better with it (docs/clutter.md, "Tried: a lying bottle's neck").
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
