@@ -1,11 +1,12 @@
 #include "fast_grasp/perception/neck_join.h"
 
+#include "fast_grasp/perception/cluster_groups.h"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 
 namespace fast_grasp
 {
@@ -91,41 +92,11 @@ std::vector<pcl::PointIndices> joinNecksToLyingBodies(const CloudXYZ& cloud, con
     }
   }
   // A neck joins its body; a body lies on the table and a neck does not, so no body is itself
-  // a neck and one pass does.
-  std::vector<pcl::PointIndices> joined;
-  std::vector<int> output_of(n, -1);
+  // a neck and one step does.
+  std::vector<int> group_of(n);
   for (std::size_t c = 0; c < n; ++c)
-    if (body_of[c] < 0)
-    {
-      output_of[c] = static_cast<int>(joined.size());
-      joined.push_back(clusters[c]);
-    }
-  for (std::size_t c = 0; c < n; ++c)
-    if (output_of[c] < 0)
-    {
-      output_of[c] = output_of[static_cast<std::size_t>(body_of[c])];
-      auto& into = joined[static_cast<std::size_t>(output_of[c])].indices;
-      into.insert(into.end(), clusters[c].indices.begin(), clusters[c].indices.end());
-    }
-  std::vector<std::size_t> order(joined.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return joined[a].indices.size() > joined[b].indices.size(); });
-  std::vector<int> rank(joined.size());
-  std::vector<pcl::PointIndices> out;
-  out.reserve(joined.size());
-  for (std::size_t r = 0; r < order.size(); ++r)
-  {
-    rank[order[r]] = static_cast<int>(r);
-    out.push_back(std::move(joined[order[r]]));
-  }
-  if (joined_into)
-  {
-    joined_into->resize(n);
-    for (std::size_t c = 0; c < n; ++c)
-      (*joined_into)[c] = rank[static_cast<std::size_t>(output_of[c])];
-  }
-  return out;
+    group_of[c] = body_of[c] >= 0 ? body_of[c] : static_cast<int>(c);
+  return mergeClusterGroups(clusters, group_of, joined_into);
 }
 
 }  // namespace fast_grasp

@@ -1,5 +1,7 @@
 #include "fast_grasp/perception/occlusion_join.h"
 
+#include "fast_grasp/perception/cluster_groups.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -197,44 +199,10 @@ std::vector<pcl::PointIndices> joinOccludedPieces(const CloudXYZ& cloud, const s
         parent[static_cast<std::size_t>(findRoot(parent, static_cast<int>(a)))] = findRoot(parent, static_cast<int>(b));
     }
 
-  std::vector<int> root_output(n, -1);
-  std::vector<pcl::PointIndices> joined;
-  std::vector<int> output_of(n);
+  std::vector<int> group_of(n);
   for (std::size_t c = 0; c < n; ++c)
-  {
-    const int root = findRoot(parent, static_cast<int>(c));
-    if (root_output[static_cast<std::size_t>(root)] < 0)
-    {
-      root_output[static_cast<std::size_t>(root)] = static_cast<int>(joined.size());
-      joined.emplace_back();
-      joined.back().header = clusters[c].header;
-    }
-    const int out = root_output[static_cast<std::size_t>(root)];
-    output_of[c] = out;
-    auto& indices = joined[static_cast<std::size_t>(out)].indices;
-    indices.insert(indices.end(), clusters[c].indices.begin(), clusters[c].indices.end());
-  }
-  // Largest first, as the clusters came.
-  std::vector<int> order(joined.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int x, int y) {
-    return joined[static_cast<std::size_t>(x)].indices.size() > joined[static_cast<std::size_t>(y)].indices.size();
-  });
-  std::vector<int> rank(joined.size());
-  std::vector<pcl::PointIndices> sorted;
-  sorted.reserve(joined.size());
-  for (std::size_t r = 0; r < order.size(); ++r)
-  {
-    rank[static_cast<std::size_t>(order[r])] = static_cast<int>(r);
-    sorted.push_back(std::move(joined[static_cast<std::size_t>(order[r])]));
-  }
-  if (joined_into)
-  {
-    joined_into->resize(n);
-    for (std::size_t c = 0; c < n; ++c)
-      (*joined_into)[c] = rank[static_cast<std::size_t>(output_of[c])];
-  }
-  return sorted;
+    group_of[c] = findRoot(parent, static_cast<int>(c));
+  return mergeClusterGroups(clusters, group_of, joined_into);
 }
 
 }  // namespace fast_grasp
