@@ -453,7 +453,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   DropCounts demoted;
   for (auto& g : pool)
   {
-    const DropRisk risk = dropRisk(g.grasp, gripper, extent, lying, rules);
+    const DropRisk risk = dropRisk(g.grasp, gripper, extent, lying, RestingBall{}, rules);
     g.demoted = risk != DropRisk::None;
     demoted.add(risk);
   }

@@ -409,6 +409,18 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
   reader.read("planners", config.planners);
   requireThesisPlanners(config.planners, "hold_check/planners");
   reader.read("tall_objects", config.tall_objects);
+  {
+    SectionReader ball(reader.child("resting_ball"), "hold_check/resting_ball");
+    ball.read("enabled", config.resting_ball.enabled);
+    ball.readPositive("max_median_residual_frac", config.resting_ball.max_median_residual_frac);
+    ball.readPositive("max_median_normal_angle_rad", config.resting_ball.max_median_normal_angle_rad);
+    ball.readCount("min_points", config.resting_ball.min_points, 3);
+    ball.readNonNegative("min_fingertip_depth_m", config.resting_ball.min_fingertip_depth_m);
+    ball.rejectUnknownKeys();
+    const std::string problem = config.resting_ball.validate();
+    if (!problem.empty())
+      throw std::runtime_error("hold_check: " + problem);
+  }
   reader.rejectUnknownKeys();
   return config;
 }
@@ -522,6 +534,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
       hold.tall_object_min_height_m = config.fused.tall_object_min_height_m;
       hold.tall_side_min_height_frac = config.fused.tall_side_min_height_frac;
     }
+    hold.resting_ball = config.hold_check.resting_ball;
     return std::make_unique<HoldCheckedPlanner>(std::move(planner), hold);
   }
   if (algorithm == "fused")

@@ -21,7 +21,7 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
 }
 
 DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
-                  const LyingCylinder& lying, const HoldCheckParams& params)
+                  const LyingCylinder& lying, const RestingBall& ball, const HoldCheckParams& params)
 {
   if (closesBelowCentreOfMass(grasp, extent, params.tall_object_min_height_m, params.tall_side_min_height_frac))
     return DropRisk::BelowCentreOfMass;
@@ -36,6 +36,8 @@ DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, cons
     case GraspAcrossCylinder::Holds:
       break;
   }
+  if (fingertipsStopHighOnBall(grasp, gripper, ball, params.resting_ball))
+    return DropRisk::HighOnBall;
   return DropRisk::None;
 }
 
@@ -52,6 +54,9 @@ void DropCounts::add(DropRisk risk)
     case DropRisk::OntoHiddenSide:
       ++onto_hidden_side;
       break;
+    case DropRisk::HighOnBall:
+      ++high_on_ball;
+      break;
     case DropRisk::None:
       break;
   }
@@ -65,16 +70,19 @@ HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, Ho
 GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   GraspResult result = planner_->plan(view, gripper);
-  if (!result.ok() || (!params_.lying_cylinder.enabled && !(params_.tall_object_min_height_m > 0.0)))
+  if (!result.ok() ||
+      (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled && !(params_.tall_object_min_height_m > 0.0)))
     return result;
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
+  // A lying can seen end-on is also round about a centre; its own rules judge it.
+  const RestingBall ball = lying.found ? RestingBall{} : fitRestingBall(view, extent, params_.resting_ball);
   std::vector<GraspCandidate> kept;
   DropCounts dropped;
   for (auto& grasp : result.grasps)
   {
-    const DropRisk risk = dropRisk(grasp, gripper, extent, lying, params_);
+    const DropRisk risk = dropRisk(grasp, gripper, extent, lying, ball, params_);
     dropped.add(risk);
     if (risk == DropRisk::None)
       kept.push_back(std::move(grasp));
@@ -88,6 +96,10 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         << std::lround(1000.0f * lying.radius_m) << " mm): dropped " << dropped.short_of_axis
         << " grasps whose fingertips stop short of its axis (slip out in physics) and " << dropped.onto_hidden_side
         << " whose open hand lands on its hidden side";
+  if (ball.found)
+    why << (dropped.below_centre_of_mass > 0 || lying.found ? "; " : "") << "ball (radius "
+        << std::lround(1000.0f * ball.radius_m) << " mm): dropped " << dropped.high_on_ball
+        << " grasps whose fingertips stop high on it (the pads' tips pop it out in physics)";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {

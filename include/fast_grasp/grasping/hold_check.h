@@ -1,6 +1,7 @@
 // A thesis planner whose grasps are checked against what the physics evaluator saw drop objects
 // before they are returned: on a round object lying on the table (lying_cylinder.h) a grasp
 // whose fingertips stop short of its axis, or whose open hand lands on its hidden side; on a
+// ball resting on the table (resting_ball.h) a grasp whose fingertips stop high on it; on a
 // tall standing object (optionally) a side grasp closing below its centre of mass. Those are
 // dropped, and when none is left the planner says why.
 //
@@ -16,6 +17,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
+#include "fast_grasp/grasping/resting_ball.h"
 
 #include <cstddef>
 #include <memory>
@@ -35,6 +37,9 @@ struct HoldCheckParams
   /// hold_check/tall_objects is true.
   double tall_object_min_height_m = 0.0;
   double tall_side_min_height_frac = 0.75;
+  /// A ball resting on the table (config/grasp_planners.yaml hold_check/resting_ball; the
+  /// fused planner ranks by its model instead). Not enabled: nothing dropped.
+  RestingBallParams resting_ball;
 };
 
 /// A side grasp (approach within 30 deg of horizontal) on an object at least
@@ -53,12 +58,13 @@ enum class DropRisk
   BelowCentreOfMass,  // closesBelowCentreOfMass
   ShortOfAxis,        // GraspAcrossCylinder::ShortOfAxis
   OntoHiddenSide,     // GraspAcrossCylinder::OntoHiddenSide
+  HighOnBall,         // fingertipsStopHighOnBall
 };
 
-/// Judges `grasp` on the view whose extent and lying round object (fitLyingCylinder, with
-/// params.lying_cylinder) are given.
+/// Judges `grasp` on the view whose extent, lying round object (fitLyingCylinder, with
+/// params.lying_cylinder) and resting ball (fitRestingBall, with params.resting_ball) are given.
 DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
-                  const LyingCylinder& lying, const HoldCheckParams& params);
+                  const LyingCylinder& lying, const RestingBall& ball, const HoldCheckParams& params);
 
 /// How many grasps each rule caught (for the planners' messages).
 struct DropCounts
@@ -66,9 +72,10 @@ struct DropCounts
   std::size_t below_centre_of_mass = 0;
   std::size_t short_of_axis = 0;
   std::size_t onto_hidden_side = 0;
+  std::size_t high_on_ball = 0;
 
   void add(DropRisk risk);
-  std::size_t total() const { return below_centre_of_mass + short_of_axis + onto_hidden_side; }
+  std::size_t total() const { return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball; }
 };
 
 /// Wraps `planner`: same name, same grasps in the same order, less those the check drops.

@@ -1,0 +1,69 @@
+// A ball resting on the table (an orange, a tennis ball, a plum) found in one partial view,
+// and how far a grasp's fingertips reach into it.
+//
+// Beyond the thesis. In physics (training objects, fresh camera draws, session 25) the thesis
+// planners' grasps on balls dropped them whenever the fingertips stopped high on the ball: the
+// flat pads then touch it with their very tips, above its widest section, and the squeeze or
+// the shake pops it out. Top grasps of every planner held (97-100 %) once the fingertips were
+// 25 mm into a large ball (8 cm: still 15 mm above its centre), and on small balls (3-4 cm)
+// only once they passed the centre; 5-10 mm less and they held 0-69 %.
+//
+// The fit uses what a single view of a resting ball gives: its centre is one radius above the
+// table and the radius is half its height. What is left is the centre's position on the table,
+// where the sphere fits the seen points best: a 2-D scan, as lying_cylinder.h does across its
+// axis. (PCL's SACMODEL_SPHERE has four unknowns for the same cap of points seen from above.)
+// ROS-free.
+#pragma once
+
+#include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/grasping/grasp_features.h"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <string>
+
+namespace fast_grasp
+{
+struct RestingBallParams
+{
+  /// Look for a resting ball at all (false: never found, nothing is judged).
+  bool enabled = false;
+  /// Round about one centre, not a box or a can: the seen points' median distance from the
+  /// fitted sphere as a fraction of its radius, and the median angle between their normals and
+  /// the direction away from the centre (a cube's faces: up to 55 deg off it).
+  double max_median_residual_frac = 0.12;
+  double max_median_normal_angle_rad = 0.3;
+  /// Fewest finite points with normals the fit needs.
+  std::size_t min_points = 30;
+  /// The fingertips must reach at least this far into the ball, measured along the approach
+  /// from the ball's near side, or pass its centre (whichever is less deep).
+  double min_fingertip_depth_m = 0.025;
+
+  std::string validate() const;
+};
+
+struct RestingBall
+{
+  bool found = false;
+  Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+  float radius_m = 0.0f;
+  float median_residual_m = 0.0f;        // median |distance from the centre - radius| of the seen points
+  float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
+  std::string why;                       // when not found: which test failed
+};
+
+/// Fits a ball resting on the table to `view` (extent: objectExtent(view)). Found only with a
+/// table plane (the radius is half the height above it).
+RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, const RestingBallParams& params);
+
+/// How far the fingertips of `grasp` (finger_depth_m / 2 ahead of its centre) pass the centre of
+/// `ball` along the approach (negative: they stop short of it). Not meaningful unless found.
+float fingertipReachPastCentre(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball);
+
+/// A grasp whose fingertips stop short of `params.min_fingertip_depth_m` into a found ball and
+/// short of its centre: false when nothing was found.
+bool fingertipsStopHighOnBall(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball,
+                              const RestingBallParams& params);
+
+}  // namespace fast_grasp

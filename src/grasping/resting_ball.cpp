@@ -1,0 +1,162 @@
+#include "fast_grasp/grasping/resting_ball.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <vector>
+
+namespace fast_grasp
+{
+namespace
+{
+/// At most this many points enter the scan (every k-th): a ball's cap is smooth, and the scan
+/// costs grid cells x points (~0.3 ms at 400).
+constexpr std::size_t kMaxFitPoints = 400;
+
+float medianOf(std::vector<float>& values)
+{
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+}  // namespace
+
+std::string RestingBallParams::validate() const
+{
+  std::ostringstream why;
+  if (!(max_median_residual_frac > 0.0 && max_median_residual_frac <= 1.0))
+    why << "resting_ball max_median_residual_frac must be in (0, 1]; ";
+  if (!(max_median_normal_angle_rad > 0.0 && max_median_normal_angle_rad <= M_PI))
+    why << "resting_ball max_median_normal_angle_rad must be in (0, pi]; ";
+  if (min_points < 3)
+    why << "resting_ball min_points must be >= 3; ";
+  if (!(min_fingertip_depth_m >= 0.0 && min_fingertip_depth_m <= 0.2))
+    why << "resting_ball min_fingertip_depth_m must be in [0, 0.2] m; ";
+  return why.str();
+}
+
+RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, const RestingBallParams& params)
+{
+  RestingBall out;
+  const auto refuse = [&out](const std::string& why) {
+    out.why = why;
+    return out;
+  };
+  if (!params.enabled)
+    return refuse("off");
+  if (!view.has_table_plane || !view.cloud)
+    return refuse("no table plane");
+  std::vector<Eigen::Vector3f> points, normals;
+  for (const auto& p : view.cloud->points)
+  {
+    const Eigen::Vector3f n = p.getNormalVector3fMap();
+    if (p.getVector3fMap().allFinite() && n.allFinite() && n.norm() > 0.5f)
+    {
+      points.push_back(p.getVector3fMap());
+      normals.push_back(n.normalized());
+    }
+  }
+  if (points.size() < params.min_points)
+    return refuse("too few points");
+  const float radius = 0.5f * extent.height_m;
+  // A ball's footprint is as wide as it is high both ways (a camera above sees at least its near
+  // half): a bar, a lying bottle or a flat box is not one.
+  if (extent.length_m > 1.25f * extent.height_m || extent.breadth_m < 0.5f * extent.height_m)
+    return refuse("footprint not as wide as it is high");
+
+  const std::size_t stride = (points.size() + kMaxFitPoints - 1) / kMaxFitPoints;
+  const auto [e1, e2] = tablePlaneBasis(extent.up);
+  const float lift = radius - extent.table_offset;  // centre = u e1 + v e2 + lift up
+  std::vector<Eigen::Vector3f> fit_points;
+  float u_lo = std::numeric_limits<float>::max(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
+  for (std::size_t i = 0; i < points.size(); i += stride)
+  {
+    fit_points.push_back(points[i]);
+    u_lo = std::min(u_lo, e1.dot(points[i]));
+    u_hi = std::max(u_hi, e1.dot(points[i]));
+    v_lo = std::min(v_lo, e2.dot(points[i]));
+    v_hi = std::max(v_hi, e2.dot(points[i]));
+  }
+  const auto centreAt = [&](float u, float v) -> Eigen::Vector3f { return u * e1 + v * e2 + lift * extent.up; };
+  // Summed squared distance from the sphere, each capped at a third of the radius (stray points
+  // and a stalk are outliers, not evidence); coarse-to-fine over the footprint and a radius
+  // beyond it on every side (24 x 24 cells, then 11 x 11 within the best cell's neighbours, twice).
+  const auto cost = [&](float u, float v) {
+    const Eigen::Vector3f c = centreAt(u, v);
+    const float cap = radius * radius / 9.0f;
+    float sum = 0.0f;
+    for (const Eigen::Vector3f& q : fit_points)
+    {
+      const float e = (q - c).norm() - radius;
+      sum += std::min(e * e, cap);
+    }
+    return sum;
+  };
+  float lo_u = u_lo - radius, hi_u = u_hi + radius, lo_v = v_lo - radius, hi_v = v_hi + radius;
+  float best_u = 0.5f * (lo_u + hi_u), best_v = 0.5f * (lo_v + hi_v);
+  for (int level = 0, steps = 24; level < 3; ++level, steps = 10)
+  {
+    const float step_u = (hi_u - lo_u) / static_cast<float>(steps), step_v = (hi_v - lo_v) / static_cast<float>(steps);
+    float best = std::numeric_limits<float>::max();
+    for (int i = 0; i <= steps; ++i)
+      for (int j = 0; j <= steps; ++j)
+      {
+        const float u = lo_u + step_u * static_cast<float>(i), v = lo_v + step_v * static_cast<float>(j);
+        if (const float c = cost(u, v); c < best)
+        {
+          best = c;
+          best_u = u;
+          best_v = v;
+        }
+      }
+    lo_u = best_u - step_u;
+    hi_u = best_u + step_u;
+    lo_v = best_v - step_v;
+    hi_v = best_v + step_v;
+  }
+  out.centre = centreAt(best_u, best_v);
+  out.radius_m = radius;
+
+  std::vector<float> residuals, angles;
+  residuals.reserve(points.size());
+  angles.reserve(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    const Eigen::Vector3f radial = points[i] - out.centre;
+    residuals.push_back(std::abs(radial.norm() - radius));
+    if (radial.norm() < 1e-4f)
+      continue;
+    // normals are oriented toward the sensor, the seen side's outward direction: the sign is free
+    const float cosine = std::abs(normals[i].dot(radial.normalized()));
+    angles.push_back(std::acos(std::min(cosine, 1.0f)));
+  }
+  out.median_residual_m = medianOf(residuals);
+  out.median_normal_angle_rad = angles.empty() ? static_cast<float>(M_PI) : medianOf(angles);
+  if (out.median_residual_m > static_cast<float>(params.max_median_residual_frac) * radius)
+    return refuse("points off the sphere");
+  if (out.median_normal_angle_rad > static_cast<float>(params.max_median_normal_angle_rad))
+    return refuse("normals not radial");
+  out.found = true;
+  return out;
+}
+
+float fingertipReachPastCentre(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball)
+{
+  const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>().normalized();
+  const Eigen::Vector3f tip =
+      grasp.pose.translation().cast<float>() + 0.5f * static_cast<float>(gripper.finger_depth_m) * approach;
+  return approach.dot(tip - ball.centre);
+}
+
+bool fingertipsStopHighOnBall(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball,
+                              const RestingBallParams& params)
+{
+  if (!ball.found)
+    return false;
+  // depth into the ball from its near side = radius + reach past the centre
+  const float needed = std::min(static_cast<float>(params.min_fingertip_depth_m), ball.radius_m);
+  return ball.radius_m + fingertipReachPastCentre(grasp, gripper, ball) < needed;
+}
+
+}  // namespace fast_grasp

@@ -1,0 +1,186 @@
+// The resting ball fit, how deep a grasp's fingertips reach into the ball, and the hold check
+// that drops grasps stopping high on it, on analytic shapes whose centre, radius and depths
+// follow from their construction.
+#include "fast_grasp/grasping/resting_ball.h"
+
+#include "fast_grasp/grasping/grasp_features.h"
+#include "fast_grasp/grasping/grasp_planner_params.h"
+#include "fast_grasp/grasping/hold_check.h"
+#include "synthetic_views.h"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <utility>
+
+namespace fast_grasp
+{
+namespace
+{
+const Eigen::Vector3d kCamera(-0.40, 0.12, 0.42);
+
+ObjectView viewOf(const synthetic::Shape& shape, double noise_m = 0.0)
+{
+  auto cloud = synthetic::renderView(shape, { kCamera, 0.003, noise_m, 7 });
+  ObjectView view = synthetic::makeObjectView(cloud, kCamera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  return view;
+}
+
+RestingBallParams enabled()
+{
+  RestingBallParams p;
+  p.enabled = true;
+  return p;
+}
+
+RestingBall fit(const ObjectView& view, const RestingBallParams& params = enabled())
+{
+  return fitRestingBall(view, objectExtent(view), params);
+}
+
+GraspCandidate graspAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& approach, const Eigen::Vector3d& closing,
+                       double score = 0.0)
+{
+  GraspCandidate grasp;
+  grasp.pose = makeGraspPose(centre, approach, closing);
+  grasp.width_m = 0.05;
+  grasp.score = score;
+  return grasp;
+}
+
+/// A planner that returns what it was given: the grasps a thesis planner would have returned.
+class GivenGrasps : public GraspPlanner
+{
+public:
+  explicit GivenGrasps(GraspResult result) : result_(std::move(result)) {}
+  GraspResult plan(const ObjectView&, const GripperModel&) const override { return result_; }
+  const char* name() const override { return "boundary"; }
+
+private:
+  GraspResult result_;
+};
+}  // namespace
+
+TEST(RestingBall, ABallOnTheTableIsFoundWithItsCentreAndRadius)
+{
+  // A 6 cm ball resting on the table: its centre 3 cm up, off the origin; seen from one side
+  // only its near cap, yet the centre is where the table puts it.
+  const Eigen::Vector3d centre(0.03, -0.02, 0.03);
+  for (const double noise : { 0.0, 0.001 })
+  {
+    const RestingBall ball = fit(viewOf(synthetic::makeSphere(centre, 0.03), noise));
+    ASSERT_TRUE(ball.found) << ball.why << " (noise " << noise << ")";
+    EXPECT_NEAR(ball.radius_m, 0.03, 0.0015) << noise;
+    EXPECT_LT((ball.centre.cast<double>() - centre).norm(), 0.003) << noise;
+    EXPECT_LT(ball.median_residual_m, 0.12 * 0.03) << noise;
+  }
+}
+
+TEST(RestingBall, BoxesCansAndBarsAreNotBalls)
+{
+  // A cube as high as the ball: its faces lie up to 0.7 of the radius off the sphere and their
+  // normals up to 55 deg off the radial direction.
+  EXPECT_FALSE(fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.03 }, { 0.06, 0.06, 0.06 }))).found);
+  // A standing can as wide as it is high: a flat top and a straight side.
+  EXPECT_FALSE(fit(viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.03 }, { 0, 0, 1 }, 0.03, 0.06))).found);
+  // A lying can 10 cm long: its footprint is longer than it is high.
+  const RestingBall lying = fit(viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.03 }, { 0, 1, 0 }, 0.03, 0.10)));
+  EXPECT_FALSE(lying.found);
+  EXPECT_EQ(lying.why, "footprint not as wide as it is high");
+  // Off: nothing is found.
+  RestingBallParams off = enabled();
+  off.enabled = false;
+  EXPECT_FALSE(fit(viewOf(synthetic::makeSphere({ 0.0, 0.0, 0.03 }, 0.03)), off).found);
+  // Without a table plane the height says nothing of the radius.
+  ObjectView floating = viewOf(synthetic::makeSphere({ 0.0, 0.0, 0.03 }, 0.03));
+  floating.has_table_plane = false;
+  EXPECT_FALSE(fit(floating).found);
+}
+
+TEST(RestingBall, FingertipsMustReachTheGripDepthOrPassTheCentre)
+{
+  // Hand-placed ball (centre, radius): the fingertips are finger_depth_m / 2 = 2 cm ahead of
+  // the grasp centre. Depth into the ball from its near side = radius + reach past the centre.
+  RestingBall ball;
+  ball.found = true;
+  ball.centre = Eigen::Vector3f(0.0f, 0.0f, 0.04f);
+  ball.radius_m = 0.04f;
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const RestingBallParams params = enabled();  // 2.5 cm
+  const Eigen::Vector3d down(0, 0, -1), across(1, 0, 0);
+  // top-down, tips at 5.3 cm: 1.3 cm short of the centre, 2.7 cm into the 8 cm ball (kept)
+  const GraspCandidate deep_enough = graspAt({ 0.0, 0.0, 0.073 }, down, across);
+  EXPECT_NEAR(fingertipReachPastCentre(deep_enough, gripper, ball), -0.013, 1e-6);
+  EXPECT_FALSE(fingertipsStopHighOnBall(deep_enough, gripper, ball, params));
+  // tips at 6 cm: 2 cm into it (dropped)
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.08 }, down, across), gripper, ball, params));
+  // from the side (approach +x), the grasp centre 5.5 cm before the centre: tips 3.5 cm
+  // before it, 5 mm into the ball (dropped); 3.2 cm before it: tips 1.2 cm short, 2.8 cm in (kept)
+  const Eigen::Vector3d side(1, 0, 0), vertical(0, 0, 1);
+  EXPECT_NEAR(fingertipReachPastCentre(graspAt({ -0.055, 0.0, 0.04 }, side, vertical), gripper, ball), -0.035, 1e-6);
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ -0.055, 0.0, 0.04 }, side, vertical), gripper, ball, params));
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ -0.032, 0.0, 0.04 }, side, vertical), gripper, ball, params));
+  // A 3 cm ball (radius 1.5 cm < 2.5 cm): the tips must pass its centre.
+  ball.centre = Eigen::Vector3f(0.0f, 0.0f, 0.015f);
+  ball.radius_m = 0.015f;
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.033 }, down, across), gripper, ball, params));  // 2 mm past
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, ball, params));   // 2 mm short
+  // Nothing found: nothing is judged.
+  ball.found = false;
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.2 }, down, across), gripper, ball, params));
+}
+
+TEST(RestingBall, TheHoldCheckDropsGraspsHighOnABallAndKeepsTheRestInOrder)
+{
+  // The 6 cm ball of ABallOnTheTableIsFoundWithItsCentreAndRadius, at the origin: needs the
+  // tips 2.5 cm in, at most 3.5 cm above the table.
+  const ObjectView view = viewOf(synthetic::makeSphere({ 0.0, 0.0, 0.03 }, 0.03));
+  const Eigen::Vector3d down(0, 0, -1), across(1, 0, 0);
+  GraspResult given;
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.065 }, down, across, 0.9));  // tips at 4.5 cm: 1.5 cm in
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.048 }, down, across, 0.8));  // tips at 2.8 cm: past the centre
+  given.grasps.push_back(graspAt({ 0.0, 0.0, 0.053 }, down, across, 0.7));  // tips at 3.3 cm: 2.7 cm in
+  HoldCheckParams params;
+  params.resting_ball = enabled();
+  const GraspResult result = HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), params)
+                                 .plan(view, synthetic::robotiqLikeGripper());
+  ASSERT_TRUE(result.ok()) << result.message;
+  ASSERT_EQ(result.grasps.size(), 2u) << result.message;
+  EXPECT_DOUBLE_EQ(result.grasps[0].score, 0.8);
+  EXPECT_DOUBLE_EQ(result.grasps[1].score, 0.7);
+  EXPECT_NE(result.message.find("dropped 1 grasps whose fingertips stop high on it"), std::string::npos)
+      << result.message;
+  // Only the high one: none left, and the planner says why.
+  GraspResult high;
+  high.grasps.push_back(given.grasps.front());
+  const GraspResult none =
+      HoldCheckedPlanner(std::make_unique<GivenGrasps>(high), params).plan(view, synthetic::robotiqLikeGripper());
+  EXPECT_FALSE(none.ok());
+  EXPECT_NE(none.message.find("ball (radius 30 mm)"), std::string::npos) << none.message;
+  // On a cube the same grasps all come back.
+  const ObjectView cube = viewOf(synthetic::makeBox({ 0.0, 0.0, 0.03 }, { 0.06, 0.06, 0.06 }));
+  EXPECT_EQ(HoldCheckedPlanner(std::make_unique<GivenGrasps>(given), params).plan(cube, synthetic::robotiqLikeGripper()).grasps.size(),
+            3u);
+}
+
+TEST(RestingBall, TheShippedConfigChecksBallsAndBadParametersAreRefused)
+{
+  const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  EXPECT_TRUE(config.hold_check.resting_ball.enabled);
+  EXPECT_EQ(config.hold_check.resting_ball.validate(), "");
+  EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape]\nresting_ball: {min_fingertip_depth_m: -0.01}")),
+               std::runtime_error);
+  EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape]\nresting_ball: {radius: 0.03}")),
+               std::runtime_error);
+  RestingBallParams p = enabled();
+  p.max_median_normal_angle_rad = 0.0;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.min_points = 2;
+  EXPECT_NE(p.validate(), "");
+}
+
+}  // namespace fast_grasp
