@@ -5,6 +5,7 @@
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/grasp_planner_params.h"
 #include "fast_grasp/grasping/hold_check.h"
+#include "hold_check_fixtures.h"
 #include "synthetic_views.h"
 
 #include <gtest/gtest.h>
@@ -16,15 +17,12 @@ namespace fast_grasp
 {
 namespace
 {
-const Eigen::Vector3d kCamera(-0.40, 0.12, 0.42);
+using hold_check_fixtures::GivenGrasps;
+using hold_check_fixtures::graspAt;
 
 ObjectView viewOf(const synthetic::Shape& shape, double noise_m = 0.0)
 {
-  auto cloud = synthetic::renderView(shape, { kCamera, 0.003, noise_m, 7 });
-  ObjectView view = synthetic::makeObjectView(cloud, kCamera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
-  return view;
+  return hold_check_fixtures::tableView(shape, noise_m);
 }
 
 LyingCylinderParams enabled()
@@ -262,28 +260,6 @@ namespace fast_grasp
 {
 namespace
 {
-/// A planner that returns what it was given: the grasps a thesis planner would have returned.
-class GivenGrasps : public GraspPlanner
-{
-public:
-  explicit GivenGrasps(GraspResult result) : result_(std::move(result)) {}
-  GraspResult plan(const ObjectView&, const GripperModel&) const override { return result_; }
-  const char* name() const override { return "concavity"; }
-
-private:
-  GraspResult result_;
-};
-
-GraspCandidate graspAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& approach, const Eigen::Vector3d& closing,
-                       double score)
-{
-  GraspCandidate grasp;
-  grasp.pose = makeGraspPose(centre, approach, closing);
-  grasp.width_m = 0.07;
-  grasp.score = score;
-  return grasp;
-}
-
 HoldCheckParams holdCheck()
 {
   HoldCheckParams p;
