@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace fast_grasp
@@ -66,7 +67,9 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
     return refuse("footprint not as wide as it is high");
 
   const std::size_t stride = (points.size() + kMaxFitPoints - 1) / kMaxFitPoints;
-  const auto [e1, e2] = tablePlaneBasis(extent.up);
+  const std::pair<Eigen::Vector3f, Eigen::Vector3f> basis = tablePlaneBasis(extent.up);
+  const Eigen::Vector3f& e1 = basis.first;  // (named, not a structured binding: the lambdas below use them)
+  const Eigen::Vector3f& e2 = basis.second;
   const float lift = radius - extent.table_offset;  // centre = u e1 + v e2 + lift up
   std::vector<Eigen::Vector3f> fit_points;
   float u_lo = std::numeric_limits<float>::max(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
