@@ -76,6 +76,47 @@ TEST(RestingBall, BoxesCansAndBarsAreNotBalls)
   EXPECT_FALSE(fit(floating).found);
 }
 
+TEST(RestingBall, AFlatRoundBodyIsFittedAsAnEllipsoidWhenAllowed)
+{
+  // A flat pebble: an ellipsoid with half-axes 4.5 x 3.5 x 2 cm resting on the table (centre
+  // 2 cm up). Made from a rendered 2 cm ball by stretching x and y (an affine map keeps which
+  // points a camera sees: the ball is rendered from the camera pulled back by the inverse map),
+  // normals by the inverse transpose.
+  const Eigen::Vector3d stretch(0.045 / 0.02, 0.035 / 0.02, 1.0);
+  const Eigen::Vector3d eye = hold_check_fixtures::kCamera;
+  auto cloud = synthetic::renderView(synthetic::makeSphere({ 0.0, 0.0, 0.02 }, 0.02),
+                                     { eye.cwiseQuotient(stretch), 0.002, 0.0, 7 });
+  for (auto& p : cloud->points)
+  {
+    p.getVector3fMap() = p.getVector3fMap().cwiseProduct(stretch.cast<float>());
+    p.getNormalVector3fMap() = p.getNormalVector3fMap().cwiseQuotient(stretch.cast<float>()).normalized();
+  }
+  ObjectView view = synthetic::makeObjectView(cloud, eye);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+
+  const RestingBall as_ball = fit(view);  // balls only (max_length_to_height 1.25)
+  EXPECT_FALSE(as_ball.found);
+  RestingBallParams params = enabled();
+  params.max_length_to_height = 2.5;
+  const RestingBall pebble = fit(view, params);
+  ASSERT_TRUE(pebble.found) << pebble.why;
+  EXPECT_NEAR(pebble.radius_m, 0.02, 0.0015);
+  EXPECT_LT((pebble.centre.cast<double>() - Eigen::Vector3d(0.0, 0.0, 0.02)).norm(), 0.006);
+  // Straight down its radius is the vertical half-axis; along its long axis (x) the long one,
+  // within what a partial view gives of the footprint.
+  EXPECT_NEAR(radiusAlong(pebble, Eigen::Vector3f(0, 0, -1)), 0.02, 0.0015);
+  EXPECT_NEAR(radiusAlong(pebble, Eigen::Vector3f(1, 0, 0)), 0.045, 0.006);
+  // Top-down grasps (fingertips 2 cm ahead of the centre): tips 1.8 cm above the table, 2.2 cm
+  // into it and past its rim at half height, are kept; at 3 cm, 1 cm into it, dropped.
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.038 }, down, across), gripper, pebble, params));
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.05 }, down, across), gripper, pebble, params));
+  // A box of the same footprint is still no round body.
+  EXPECT_FALSE(fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.02 }, { 0.09, 0.07, 0.04 })), params).found);
+}
+
 TEST(RestingBall, FingertipsMustReachTheGripDepthOrPassTheCentre)
 {
   // Hand-placed ball (centre, radius): the fingertips are finger_depth_m / 2 = 2 cm ahead of

@@ -416,6 +416,7 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
     ball.readPositive("max_median_normal_angle_rad", config.resting_ball.max_median_normal_angle_rad);
     ball.readCount("min_points", config.resting_ball.min_points, 3);
     ball.readNonNegative("min_fingertip_depth_m", config.resting_ball.min_fingertip_depth_m);
+    ball.readPositive("max_length_to_height", config.resting_ball.max_length_to_height);
     ball.rejectUnknownKeys();
     const std::string problem = config.resting_ball.validate();
     if (!problem.empty())

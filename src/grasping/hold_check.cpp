@@ -97,9 +97,16 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         << " grasps whose fingertips stop short of its axis (slip out in physics) and " << dropped.onto_hidden_side
         << " whose open hand lands on its hidden side";
   if (ball.found)
-    why << (dropped.below_centre_of_mass > 0 || lying.found ? "; " : "") << "ball (radius "
-        << std::lround(1000.0f * ball.radius_m) << " mm): dropped " << dropped.high_on_ball
+  {
+    why << (dropped.below_centre_of_mass > 0 || lying.found ? "; " : "");
+    if (ball.half_axes_m.x() > ball.radius_m * 1.001f)
+      why << "round body (half-axes " << std::lround(1000.0f * ball.half_axes_m.x()) << " x "
+          << std::lround(1000.0f * ball.half_axes_m.y()) << " x " << std::lround(1000.0f * ball.radius_m) << " mm)";
+    else
+      why << "ball (radius " << std::lround(1000.0f * ball.radius_m) << " mm)";
+    why << ": dropped " << dropped.high_on_ball
         << " grasps whose fingertips stop high on it (the pads' tips pop it out in physics)";
+  }
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {

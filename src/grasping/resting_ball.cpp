@@ -34,6 +34,8 @@ std::string RestingBallParams::validate() const
     why << "resting_ball min_points must be >= 3; ";
   if (!(min_fingertip_depth_m >= 0.0 && min_fingertip_depth_m <= 0.2))
     why << "resting_ball min_fingertip_depth_m must be in [0, 0.2] m; ";
+  if (!(max_length_to_height >= 1.25 && max_length_to_height <= 10.0))
+    why << "resting_ball max_length_to_height must be in [1.25, 10]; ";
   return why.str();
 }
 
@@ -62,14 +64,31 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
     return refuse("too few points");
   const float radius = 0.5f * extent.height_m;
   // A ball's footprint is as wide as it is high both ways (a camera above sees at least its near
-  // half): a bar, a lying bottle or a flat box is not one.
-  if (extent.length_m > 1.25f * extent.height_m || extent.breadth_m < 0.5f * extent.height_m)
+  // half): a bar, a lying bottle or a flat box is not one. Up to max_length_to_height a longer
+  // footprint is an ellipsoid's, fitted as a ball after scaling the footprint's axes to the height.
+  if (extent.length_m > static_cast<float>(params.max_length_to_height) * extent.height_m ||
+      extent.breadth_m < 0.5f * extent.height_m)
     return refuse("footprint not as wide as it is high");
+  const bool ellipsoid = extent.length_m > 1.25f * extent.height_m;
+  const Eigen::Vector3f& e1 = extent.major_axis;  // (named, not structured bindings: the lambdas below use them)
+  const Eigen::Vector3f e2 = extent.up.cross(e1).normalized();
+  const float half_length = ellipsoid ? std::max(radius, 0.5f * extent.length_m) : radius;
+  const float half_breadth = ellipsoid ? std::max(0.5f * radius, 0.5f * extent.breadth_m) : radius;
+  const float scale1 = radius / half_length, scale2 = radius / half_breadth;
+  // Into the space where the body is a ball of `radius` (points) and back (normals: inverse transpose).
+  const auto toBall = [&](const Eigen::Vector3f& p) -> Eigen::Vector3f {
+    return scale1 * e1.dot(p) * e1 + scale2 * e2.dot(p) * e2 + extent.up.dot(p) * extent.up;
+  };
+  const auto normalToBall = [&](const Eigen::Vector3f& n) -> Eigen::Vector3f {
+    return (e1.dot(n) / scale1 * e1 + e2.dot(n) / scale2 * e2 + extent.up.dot(n) * extent.up).normalized();
+  };
+  for (std::size_t i = 0; i < points.size(); ++i)
+  {
+    points[i] = toBall(points[i]);
+    normals[i] = normalToBall(normals[i]);
+  }
 
   const std::size_t stride = (points.size() + kMaxFitPoints - 1) / kMaxFitPoints;
-  const std::pair<Eigen::Vector3f, Eigen::Vector3f> basis = tablePlaneBasis(extent.up);
-  const Eigen::Vector3f& e1 = basis.first;  // (named, not a structured binding: the lambdas below use them)
-  const Eigen::Vector3f& e2 = basis.second;
   const float lift = radius - extent.table_offset;  // centre = u e1 + v e2 + lift up
   std::vector<Eigen::Vector3f> fit_points;
   float u_lo = std::numeric_limits<float>::max(), u_hi = -u_lo, v_lo = u_lo, v_hi = -u_lo;
@@ -118,7 +137,12 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
     lo_v = best_v - step_v;
     hi_v = best_v + step_v;
   }
-  out.centre = centreAt(best_u, best_v);
+  const Eigen::Vector3f ball_centre = centreAt(best_u, best_v);
+  out.centre = best_u / scale1 * e1 + best_v / scale2 * e2 + lift * extent.up;
+  out.half_axes_m = Eigen::Vector3f(half_length, half_breadth, radius);
+  out.major_axis = e1;
+  out.minor_axis = e2;
+  out.up = extent.up;
   out.radius_m = radius;
 
   std::vector<float> residuals, angles;
@@ -126,7 +150,7 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
   angles.reserve(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
   {
-    const Eigen::Vector3f radial = points[i] - out.centre;
+    const Eigen::Vector3f radial = points[i] - ball_centre;
     residuals.push_back(std::abs(radial.norm() - radius));
     if (radial.norm() < 1e-4f)
       continue;
@@ -144,6 +168,16 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
   return out;
 }
 
+float radiusAlong(const RestingBall& ball, const Eigen::Vector3f& direction)
+{
+  if (!(ball.half_axes_m.minCoeff() > 0.0f))
+    return ball.radius_m;
+  const Eigen::Vector3f d = direction.normalized();
+  const Eigen::Vector3f scaled(d.dot(ball.major_axis) / ball.half_axes_m.x(), d.dot(ball.minor_axis) / ball.half_axes_m.y(),
+                               d.dot(ball.up) / ball.half_axes_m.z());
+  return 1.0f / scaled.norm();
+}
+
 float fingertipReachPastCentre(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball)
 {
   const Eigen::Vector3f approach = grasp.pose.linear().col(0).cast<float>().normalized();
@@ -157,9 +191,10 @@ bool fingertipsStopHighOnBall(const GraspCandidate& grasp, const GripperModel& g
 {
   if (!ball.found)
     return false;
-  // depth into the ball from its near side = radius + reach past the centre
-  const float needed = std::min(static_cast<float>(params.min_fingertip_depth_m), ball.radius_m);
-  return ball.radius_m + fingertipReachPastCentre(grasp, gripper, ball) < needed;
+  // depth into the body from its near side = its radius along the approach + reach past the centre
+  const float radius = radiusAlong(ball, grasp.pose.linear().col(0).cast<float>());
+  const float needed = std::min(static_cast<float>(params.min_fingertip_depth_m), radius);
+  return radius + fingertipReachPastCentre(grasp, gripper, ball) < needed;
 }
 
 }  // namespace fast_grasp

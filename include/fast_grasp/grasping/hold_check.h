@@ -1,9 +1,9 @@
 // A thesis planner whose grasps are checked against what the physics evaluator saw drop objects
 // before they are returned: on a round object lying on the table (lying_cylinder.h) a grasp
 // whose fingertips stop short of its axis, or whose open hand lands on its hidden side; on a
-// ball resting on the table (resting_ball.h) a grasp whose fingertips stop high on it; on a
-// tall standing object (optionally) a side grasp closing below its centre of mass. Those are
-// dropped, and when none is left the planner says why.
+// ball or round body resting on the table (resting_ball.h) a grasp whose fingertips stop high
+// on it; on a tall standing object (optionally) a side grasp closing below its centre of mass.
+// Those are dropped, and when none is left the planner says why.
 //
 // Beyond the thesis. Its planners put the closing line where they saw contacts, the top and
 // the camera-facing side of a can or bottle lying down; in physics such grasps hold half the
