@@ -68,7 +68,7 @@ struct LyingCylinder
   float half_length_m = 0.0f;            // half the seen points' span along the axis (about axis_point)
   float median_residual_m = 0.0f;        // median |distance from the axis - radius| of the seen points
   float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
-  float normal_spread_ratio = 1.0f;      // least over most spread of the normals' horizontal parts
+  float normal_spread_ratio = 1.0f;      // least over most spread of the normals' horizontal parts (the body's where it is long)
   std::string why;                       // when not found: which test failed
 };
 
