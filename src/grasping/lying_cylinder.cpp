@@ -55,13 +55,13 @@ Eigen::Vector3f squareToMostNormals(const std::vector<Eigen::Vector3f>& normals,
   return std::cos(best_angle) * e1 + std::sin(best_angle) * e2;
 }
 
-/// The view seen along one horizontal axis: the circle of `radius` tangent to the table fitted
-/// to the points' cross-section, and how round they are about it.
 /// Seen points within this fraction of the radius of the fitted circle are the body.
 constexpr float kBodyResidualFrac = 0.15f;
 /// The body's normals judge the spread once the body is this many times as long as high.
 constexpr float kBodyMinLengthToHeight = 1.0f;
 
+/// The view seen along one horizontal axis: the circle of `radius` tangent to the table fitted
+/// to the points' cross-section, and how round they are about it.
 struct SectionFit
 {
   Eigen::Vector3f axis = Eigen::Vector3f::UnitX();
