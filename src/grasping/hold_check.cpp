@@ -99,9 +99,10 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   if (ball.found)
   {
     why << (dropped.below_centre_of_mass > 0 || lying.found ? "; " : "");
-    if (ball.half_axes_m.x() > ball.radius_m * 1.001f)
-      why << "round body (half-axes " << std::lround(1000.0f * ball.half_axes_m.x()) << " x "
-          << std::lround(1000.0f * ball.half_axes_m.y()) << " x " << std::lround(1000.0f * ball.radius_m) << " mm)";
+    if (ball.horizontal_half_axes_m.x() > ball.radius_m * 1.001f)
+      why << "round body (half-axes " << std::lround(1000.0f * ball.horizontal_half_axes_m.x()) << " x "
+          << std::lround(1000.0f * ball.horizontal_half_axes_m.y()) << " x " << std::lround(1000.0f * ball.radius_m)
+          << " mm)";
     else
       why << "ball (radius " << std::lround(1000.0f * ball.radius_m) << " mm)";
     why << ": dropped " << dropped.high_on_ball

@@ -139,9 +139,8 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
   }
   const Eigen::Vector3f ball_centre = centreAt(best_u, best_v);
   out.centre = best_u / scale1 * e1 + best_v / scale2 * e2 + lift * extent.up;
-  out.half_axes_m = Eigen::Vector3f(half_length, half_breadth, radius);
+  out.horizontal_half_axes_m = Eigen::Vector2f(half_length, half_breadth);
   out.major_axis = e1;
-  out.minor_axis = e2;
   out.up = extent.up;
   out.radius_m = radius;
 
@@ -170,11 +169,12 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
 
 float radiusAlong(const RestingBall& ball, const Eigen::Vector3f& direction)
 {
-  if (!(ball.half_axes_m.minCoeff() > 0.0f))
+  if (!(ball.horizontal_half_axes_m.minCoeff() > 0.0f && ball.radius_m > 0.0f))
     return ball.radius_m;
   const Eigen::Vector3f d = direction.normalized();
-  const Eigen::Vector3f scaled(d.dot(ball.major_axis) / ball.half_axes_m.x(), d.dot(ball.minor_axis) / ball.half_axes_m.y(),
-                               d.dot(ball.up) / ball.half_axes_m.z());
+  const Eigen::Vector3f minor_axis = ball.up.cross(ball.major_axis);
+  const Eigen::Vector3f scaled(d.dot(ball.major_axis) / ball.horizontal_half_axes_m.x(),
+                               d.dot(minor_axis) / ball.horizontal_half_axes_m.y(), d.dot(ball.up) / ball.radius_m);
   return 1.0f / scaled.norm();
 }
 

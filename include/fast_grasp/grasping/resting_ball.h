@@ -57,10 +57,10 @@ struct RestingBall
   bool found = false;
   Eigen::Vector3f centre = Eigen::Vector3f::Zero();
   float radius_m = 0.0f;  // the vertical half-axis (half the height): the radius of a ball
-  /// Half-axes along major_axis, minor_axis and up (all radius_m for a ball).
-  Eigen::Vector3f half_axes_m = Eigen::Vector3f::Zero();
+  /// Horizontal half-axes along major_axis and across it (up x major_axis); both radius_m for
+  /// a ball, zero when not fitted (radiusAlong then uses radius_m).
+  Eigen::Vector2f horizontal_half_axes_m = Eigen::Vector2f::Zero();
   Eigen::Vector3f major_axis = Eigen::Vector3f::UnitX();
-  Eigen::Vector3f minor_axis = Eigen::Vector3f::UnitY();
   Eigen::Vector3f up = Eigen::Vector3f::UnitZ();
   float median_residual_m = 0.0f;        // median |distance from the centre - radius| of the seen points
   float median_normal_angle_rad = 0.0f;  // median angle of their normals to the radial direction
