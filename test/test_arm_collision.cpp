@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -175,6 +177,63 @@ TEST(RobotCollision, OnlyFingersMayTouchTheTargetDuringApproach)
   // An empty target is no obstacle.
   collision.setTargetCloud(pcl::PointCloud<pcl::PointXYZ>());
   EXPECT_FALSE(collision.inCollision(kHome));
+}
+
+/// Lowest z of a box shape placed at `pose` (its corners' extreme along world z).
+double lowestZ(const fast_grasp::RobotShape& shape, const Eigen::Isometry3d& pose)
+{
+  double reach = 0.0;
+  for (int k = 0; k < 3; ++k)
+    reach += 0.5 * shape.size_m[k] * std::abs(pose.linear()(2, k));
+  return pose.translation().z() - reach;
+}
+
+TEST(RobotCollision, FingersArePaddedByTheirOwnPadding)
+{
+  // Links padded 5 mm, fingers 2 mm: a table 3 mm under the fingertips (the hand points down
+  // at home) blocks the hand only when the fingers carry the links' 5 mm.
+  const RobotCollision uniform(ur5(), 0.005);
+  const RobotCollision fingers_tight(ur5(), 0.005, { "left_finger_link", "right_finger_link" }, 0.002);
+  std::vector<Eigen::Isometry3d> poses;
+  uniform.shapePoses(kHome, poses);
+  double tips = std::numeric_limits<double>::infinity();
+  std::size_t palm = uniform.shapes().size();
+  for (std::size_t i = 0; i < uniform.shapes().size(); ++i)
+  {
+    const auto& s = uniform.shapes()[i];
+    if (s.finger)
+    {
+      ASSERT_EQ(s.type, fast_grasp::RobotShape::Type::Box);
+      tips = std::min(tips, lowestZ(s, poses[i]));
+    }
+    if (s.link == "gripper_palm_link")
+      palm = i;
+  }
+  ASSERT_TRUE(std::isfinite(tips));
+  ASSERT_LT(palm, uniform.shapes().size());
+  // A table top 30 cm square under the hand (the rest of the arm is elsewhere)
+  const Eigen::Vector3d hand = poses[palm].translation();
+  const auto withTableAt = [&hand](RobotCollision collision, double top_z) {
+    Eigen::Isometry3d table = Eigen::Isometry3d::Identity();
+    table.translation() << hand.x(), hand.y(), top_z - 0.05;
+    collision.addBox("table", Eigen::Vector3d(0.3, 0.3, 0.1), table);
+    return collision;
+  };
+  std::string why;
+  EXPECT_TRUE(withTableAt(uniform, tips - 0.003).inCollision(kHome, CollisionCheckOptions(), &why));
+  EXPECT_NE(why.find("finger"), std::string::npos) << why;
+  EXPECT_FALSE(withTableAt(fingers_tight, tips - 0.003).inCollision(kHome, CollisionCheckOptions(), &why)) << why;
+  EXPECT_TRUE(withTableAt(fingers_tight, tips - 0.001).inCollision(kHome));
+  // The palm is no finger here: 3 mm under it is still a collision (a thin board across the
+  // hand between the fingers, which hang lower and would otherwise hit it first).
+  RobotCollision board = fingers_tight;
+  const double palm_bottom = lowestZ(uniform.shapes()[palm], poses[palm]);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() = poses[palm].translation();
+  pose.translation().z() = palm_bottom - 0.003 - 0.001;
+  board.addBox("board", Eigen::Vector3d(0.02, 0.02, 0.002), pose);
+  EXPECT_TRUE(board.inCollision(kHome, CollisionCheckOptions(), &why));
+  EXPECT_NE(why.find("gripper_palm_link"), std::string::npos) << why;
 }
 
 }  // namespace

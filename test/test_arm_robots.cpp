@@ -486,6 +486,14 @@ TEST(RobotConfig, Ur5ConfigKeepsTheUr5Values)
   EXPECT_NEAR(p.link_padding_m, 0.005, 1e-12);
   EXPECT_NEAR(p.robot.home_pose_rad.at("shoulder_lift_joint"), -1.5708, 1e-9);
   EXPECT_THROW(robotParams("no_such_robot"), std::runtime_error);
+  // The object-contact links (fingers, palm) are padded 2 mm, the other links 5 mm
+  // (RobotCollision.FingersArePaddedByTheirOwnPadding); the collision model knows all three.
+  EXPECT_NEAR(p.robot.contact_link_padding_m, 0.002, 1e-12);
+  const fast_grasp::RobotCollision collision = fast_grasp::makeRobotCollision(p);
+  int contact_links = 0;
+  for (const fast_grasp::RobotShape& s : collision.shapes())
+    contact_links += s.finger ? 1 : 0;
+  EXPECT_EQ(contact_links, 3);  // two fingers and the palm
 }
 
 TEST(RobotConfig, AHomePoseThatIsAFolderIsABadFileNotALeak)

@@ -78,8 +78,10 @@ RobotCollision makeRobotCollision(const GraspExecutionParams& params)
   if (!group.empty() && group != kinematics.jointNames())
     throw std::runtime_error("robot '" + params.robot.name + "': the chain " + params.base_link + " -> " +
                              params.tip_link + " has other joints than the configured planning group");
-  return params.robot.name.empty() ? RobotCollision(kinematics, params.link_padding_m) :
-                                     RobotCollision(kinematics, params.link_padding_m, params.robot.object_contact_links);
+  return params.robot.name.empty() ?
+             RobotCollision(kinematics, params.link_padding_m) :
+             RobotCollision(kinematics, params.link_padding_m, params.robot.object_contact_links,
+                            params.robot.contact_link_padding_m);
 }
 
 GraspExecutionParams loadGraspExecutionParams(const std::string& arm_yaml, const std::string& planners_yaml,

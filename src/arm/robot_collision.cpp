@@ -424,8 +424,10 @@ RobotCollision::Scene::Bounds leafBounds(const octomap::OcTree& tree)
 }  // namespace
 
 RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padding_m,
-                               std::vector<std::string> finger_links)
-  : kinematics_(kinematics), link_padding_m_(std::max(0.0, link_padding_m))
+                               std::vector<std::string> finger_links, double finger_padding_m)
+  : kinematics_(kinematics)
+  , link_padding_m_(std::max(0.0, link_padding_m))
+  , finger_padding_m_(finger_padding_m < 0.0 ? link_padding_m_ : finger_padding_m)
 {
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(kinematics_.urdfXml());
   if (!model)
@@ -504,7 +506,7 @@ RobotCollision::RobotCollision(const ArmKinematics& kinematics, double link_padd
   auto geometry = std::make_shared<Geometry>();
   for (const RobotShape& s : shapes_)
   {
-    const auto g = makeGeometry(s, link_padding_m_);
+    const auto g = makeGeometry(s, s.finger ? finger_padding_m_ : link_padding_m_);
     geometry->shapes.push_back(g.first);
     geometry->convex.push_back(g.second);
     const Eigen::Isometry3d in_body = kinematics_.linkInBodyFrame(s.chain_link) * s.offset;

@@ -4,6 +4,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <filesystem>
 #include <stdexcept>
 
@@ -96,6 +97,8 @@ RobotConfig loadRobotConfig(const std::string& yaml_path)
       robot.link_padding_m = root["link_padding_m"].as<double>();
     if (root["object_contact_links"])
       robot.object_contact_links = root["object_contact_links"].as<std::vector<std::string>>();
+    if (root["contact_link_padding_m"])
+      robot.contact_link_padding_m = root["contact_link_padding_m"].as<double>();
     const Eigen::VectorXd base = readVector(root, "benchmark_base_m", yaml_path);
     if (base.size() == 3)
       robot.benchmark_base_m = base;
@@ -139,6 +142,8 @@ RobotConfig loadRobotConfig(const std::string& yaml_path)
   sized(robot.acceleration_limit_rad_s2, "acceleration_limit_rad_s2");
   if (!(robot.link_padding_m >= 0.0))
     throw std::runtime_error("robot config '" + yaml_path + "': 'link_padding_m' must be >= 0");
+  if (std::isnan(robot.contact_link_padding_m))
+    throw std::runtime_error("robot config '" + yaml_path + "': 'contact_link_padding_m' is not a number");
   for (const std::string& joint : robot.joints)
     if (!robot.home_pose_rad.empty() && robot.home_pose_rad.count(joint) == 0)
       throw std::runtime_error("robot config '" + yaml_path + "': home pose lacks joint '" + joint + "'");

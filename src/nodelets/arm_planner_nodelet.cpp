@@ -86,7 +86,8 @@ class ArmPlannerNodelet : public nodelet::Nodelet
       collision_ = params_.robot.name.empty() ?
                        std::make_unique<RobotCollision>(kinematics, params_.link_padding_m) :
                        std::make_unique<RobotCollision>(kinematics, params_.link_padding_m,
-                                                        params_.robot.object_contact_links);
+                                                        params_.robot.object_contact_links,
+                                                        params_.robot.contact_link_padding_m);
       // Shadow points as dense along the camera rays as the OctoMap's voxels, so the hidden
       // space becomes a closed wall of voxels rather than a dotted one.
       unseen_params_.step_m = params_.octomap_resolution_m;

@@ -53,9 +53,11 @@ class RobotCollision
 public:
   /// Reads the collision shapes (box, cylinder, sphere; meshes are skipped and counted) of
   /// every link rigidly attached to the chain of `kinematics`. `link_padding_m` inflates them.
-  /// finger_links name the links allowed to touch the target during the final approach.
+  /// finger_links name the links allowed to touch the target during the final approach; they
+  /// are inflated by `finger_padding_m` instead (< 0: link_padding_m too).
   explicit RobotCollision(const ArmKinematics& kinematics, double link_padding_m = 0.0,
-                          std::vector<std::string> finger_links = { "left_finger_link", "right_finger_link" });
+                          std::vector<std::string> finger_links = { "left_finger_link", "right_finger_link" },
+                          double finger_padding_m = -1.0);
 
   const ArmKinematics& kinematics() const { return kinematics_; }
   const std::vector<RobotShape>& shapes() const { return shapes_; }
@@ -128,6 +130,7 @@ private:
   std::vector<std::string> allowed_pairs_;
   Eigen::VectorXd lever_arms_m_;
   double link_padding_m_ = 0.0;
+  double finger_padding_m_ = 0.0;
   std::size_t skipped_meshes_ = 0;
   std::shared_ptr<const Scene> scene_;
 };

@@ -27,6 +27,10 @@ struct RobotConfig
   Eigen::VectorXd acceleration_limit_rad_s2;  // empty: 2 rad/s^2 per joint
   double link_padding_m = 0.005;
   std::vector<std::string> object_contact_links = { "left_finger_link", "right_finger_link" };
+  /// The object_contact_links are inflated by this instead of link_padding_m; < 0 = the same.
+  /// Why: a finger's shape is known to the millimetre, and a 5 mm pad kept fingertips 6 mm
+  /// above the table, where they close on a lying pen or battery at its equator and it slips out.
+  double contact_link_padding_m = -1.0;
   /// Where this robot's base stands in the benchmark scenes (config/benchmarks/, laid out
   /// around the UR5 at the origin), m: an arm of longer reach stands further back.
   Eigen::Vector3d benchmark_base_m = Eigen::Vector3d::Zero();
