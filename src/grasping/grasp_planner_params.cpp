@@ -422,6 +422,22 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
     if (!problem.empty())
       throw std::runtime_error("hold_check: " + problem);
   }
+  {
+    SectionReader standing(reader.child("standing_cylinder"), "hold_check/standing_cylinder");
+    StandingCylinderParams& s = config.standing_cylinder;
+    standing.read("enabled", s.enabled);
+    standing.readNonNegative("min_height_m", s.min_height_m);
+    standing.readPositive("band_half_height_m", s.band_half_height_m);
+    standing.readCount("min_points", s.min_points, 5);
+    standing.readPositive("max_median_residual_frac", s.max_median_residual_frac);
+    standing.readPositive("max_median_normal_angle_rad", s.max_median_normal_angle_rad);
+    standing.readNonNegative("min_arc_rad", s.min_arc_rad);
+    standing.readNonNegative("max_shortfall_frac", s.max_shortfall_frac);
+    standing.rejectUnknownKeys();
+    const std::string problem = s.validate();
+    if (!problem.empty())
+      throw std::runtime_error("hold_check: " + problem);
+  }
   reader.rejectUnknownKeys();
   return config;
 }
@@ -536,6 +552,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
       hold.tall_side_min_height_frac = config.fused.tall_side_min_height_frac;
     }
     hold.resting_ball = config.hold_check.resting_ball;
+    hold.standing_cylinder = config.hold_check.standing_cylinder;
     return std::make_unique<HoldCheckedPlanner>(std::move(planner), hold);
   }
   if (algorithm == "fused")

@@ -2,6 +2,7 @@
 
 #include "fast_grasp/grasping/grasp_features.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -57,6 +58,9 @@ void DropCounts::add(DropRisk risk)
     case DropRisk::HighOnBall:
       ++high_on_ball;
       break;
+    case DropRisk::ShortOfStandingAxis:
+      ++short_of_standing_axis;
+      break;
     case DropRisk::None:
       break;
   }
@@ -70,8 +74,8 @@ HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, Ho
 GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   GraspResult result = planner_->plan(view, gripper);
-  if (!result.ok() ||
-      (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled && !(params_.tall_object_min_height_m > 0.0)))
+  if (!result.ok() || (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled &&
+                       !params_.standing_cylinder.enabled && !(params_.tall_object_min_height_m > 0.0)))
     return result;
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);
@@ -80,9 +84,17 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   const RestingBall ball = lying.found ? RestingBall{} : fitRestingBall(view, extent, params_.resting_ball);
   std::vector<GraspCandidate> kept;
   DropCounts dropped;
+  float widest_standing_section_m = 0.0f;
   for (auto& grasp : result.grasps)
   {
-    const DropRisk risk = dropRisk(grasp, gripper, extent, lying, ball, params_);
+    DropRisk risk = dropRisk(grasp, gripper, extent, lying, ball, params_);
+    // A lying round object or a ball is judged by its own fit above.
+    if (risk == DropRisk::None && !lying.found && !ball.found)
+      if (const auto section = standingSectionMissed(grasp, gripper, view, extent, params_.standing_cylinder))
+      {
+        risk = DropRisk::ShortOfStandingAxis;
+        widest_standing_section_m = std::max(widest_standing_section_m, section->radius_m);
+      }
     dropped.add(risk);
     if (risk == DropRisk::None)
       kept.push_back(std::move(grasp));
@@ -108,6 +120,12 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
     why << ": dropped " << dropped.high_on_ball
         << " grasps whose fingertips stop high on it (the pads' tips pop it out in physics)";
   }
+  if (dropped.short_of_standing_axis > 0)
+    why << (dropped.below_centre_of_mass > 0 || lying.found || ball.found ? "; " : "") << "tall round object (radius up to "
+        << std::lround(1000.0f * widest_standing_section_m) << " mm where they close): dropped "
+        << dropped.short_of_standing_axis
+        << " side grasps whose fingertips stop short of its axis (the pads close on a chord near their tips and "
+           "squeeze it out in physics)";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {

@@ -57,6 +57,7 @@ struct HoldCheckConfig
   std::vector<std::string> planners;  // principal_axis, cshape, boundary, concavity (never fused's pool)
   bool tall_objects = false;
   RestingBallParams resting_ball;  // hold_check/resting_ball (the hold check's own: fused ranks by its model)
+  StandingCylinderParams standing_cylinder;  // hold_check/standing_cylinder (the hold check's own)
 };
 
 /// Reads `hold_check:`. Throws std::runtime_error on another planner name or an unknown key.

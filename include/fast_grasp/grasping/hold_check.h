@@ -2,7 +2,9 @@
 // before they are returned: on a round object lying on the table (lying_cylinder.h) a grasp
 // whose fingertips stop short of its axis, or whose open hand lands on its hidden side; on a
 // ball or round body resting on the table (resting_ball.h) a grasp whose fingertips stop high
-// on it; on a tall standing object (optionally) a side grasp closing below its centre of mass.
+// on it; on a tall round object standing on the table (standing_cylinder.h) a side grasp whose
+// fingertips stop well short of its axis; on a tall standing object (optionally) a side grasp
+// closing below its centre of mass.
 // Those are dropped, and when none is left the planner says why.
 //
 // Beyond the thesis. Its planners put the closing line where they saw contacts, the top and
@@ -18,6 +20,7 @@
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
 #include "fast_grasp/grasping/resting_ball.h"
+#include "fast_grasp/grasping/standing_cylinder.h"
 
 #include <cstddef>
 #include <memory>
@@ -40,6 +43,9 @@ struct HoldCheckParams
   /// A ball resting on the table (config/grasp_planners.yaml hold_check/resting_ball; the
   /// fused planner ranks by its model instead). Not enabled: nothing dropped.
   RestingBallParams resting_ball;
+  /// A tall round object standing on the table (config/grasp_planners.yaml
+  /// hold_check/standing_cylinder; the hold check's own). Not enabled: nothing dropped.
+  StandingCylinderParams standing_cylinder;
 };
 
 /// A side grasp (approach within 30 deg of horizontal) on an object at least
@@ -59,6 +65,7 @@ enum class DropRisk
   ShortOfAxis,        // GraspAcrossCylinder::ShortOfAxis
   OntoHiddenSide,     // GraspAcrossCylinder::OntoHiddenSide
   HighOnBall,         // fingertipsStopHighOnBall
+  ShortOfStandingAxis,  // standingSectionMissed (the hold check only: it fits the view at each grasp)
 };
 
 /// Judges `grasp` on the view whose extent, lying round object (fitLyingCylinder, with
@@ -73,9 +80,13 @@ struct DropCounts
   std::size_t short_of_axis = 0;
   std::size_t onto_hidden_side = 0;
   std::size_t high_on_ball = 0;
+  std::size_t short_of_standing_axis = 0;
 
   void add(DropRisk risk);
-  std::size_t total() const { return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball; }
+  std::size_t total() const
+  {
+    return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball + short_of_standing_axis;
+  }
 };
 
 /// Wraps `planner`: same name, same grasps in the same order, less those the check drops.
