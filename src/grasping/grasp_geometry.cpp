@@ -3,6 +3,7 @@
 #include <pcl/common/centroid.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 namespace fast_grasp
@@ -45,6 +46,13 @@ PrincipalFrame computePrincipalFrame(const pcl::PointCloud<PointT>& cloud, const
                           .cwiseMax(0.0)
                           .cast<float>();
   return frame;
+}
+
+float medianInPlace(std::vector<float>& values)
+{
+  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
 }
 
 double LineFit::angleRad() const

@@ -1,5 +1,6 @@
 #include "fast_grasp/grasping/lying_cylinder.h"
 
+#include "fast_grasp/grasping/grasp_geometry.h"
 #include "fast_grasp/grasping/gripper_volume.h"
 
 #include <Eigen/Eigenvalues>
@@ -15,13 +16,6 @@ namespace fast_grasp
 {
 namespace
 {
-float median(std::vector<float>& values)
-{
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
-
 /// The horizontal direction the most normals are square to: a scan over half a turn (2 deg,
 /// then 0.1 deg steps) of the summed squared normal components along it, each capped at 0.25
 /// (a normal within 60 deg of the direction is an end face, not evidence against it). The seen
@@ -163,10 +157,10 @@ SectionFit fitSection(const std::vector<Eigen::Vector3f>& points, const std::vec
     const float cosine = std::abs(in_section.normalized().dot(radial.normalized()));
     angles.push_back(std::acos(std::min(cosine, 1.0f)));
   }
-  fit.median_residual_m = median(residuals);
+  fit.median_residual_m = medianInPlace(residuals);
   fit.normals_used = angles.size();
   if (!angles.empty())
-    fit.median_normal_angle_rad = median(angles);
+    fit.median_normal_angle_rad = medianInPlace(angles);
   const auto spreadRatio = [](const Eigen::Matrix2f& normal_scatter) {
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> spread(normal_scatter);
     return spread.eigenvalues()(1) > 1e-9f ? spread.eigenvalues()(0) / spread.eigenvalues()(1) : 1.0f;

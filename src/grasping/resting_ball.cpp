@@ -1,5 +1,7 @@
 #include "fast_grasp/grasping/resting_ball.h"
 
+#include "fast_grasp/grasping/grasp_geometry.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -14,13 +16,6 @@ namespace
 /// At most this many points enter the scan (every k-th): a ball's cap is smooth, and the scan
 /// costs grid cells x points (~0.3 ms at 400).
 constexpr std::size_t kMaxFitPoints = 400;
-
-float medianOf(std::vector<float>& values)
-{
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
 }  // namespace
 
 std::string RestingBallParams::validate() const
@@ -157,8 +152,8 @@ RestingBall fitRestingBall(const ObjectView& view, const ObjectExtent& extent, c
     const float cosine = std::abs(normals[i].dot(radial.normalized()));
     angles.push_back(std::acos(std::min(cosine, 1.0f)));
   }
-  out.median_residual_m = medianOf(residuals);
-  out.median_normal_angle_rad = angles.empty() ? static_cast<float>(M_PI) : medianOf(angles);
+  out.median_residual_m = medianInPlace(residuals);
+  out.median_normal_angle_rad = angles.empty() ? static_cast<float>(M_PI) : medianInPlace(angles);
   if (out.median_residual_m > static_cast<float>(params.max_median_residual_frac) * radius)
     return refuse("points off the sphere");
   if (out.median_normal_angle_rad > static_cast<float>(params.max_median_normal_angle_rad))

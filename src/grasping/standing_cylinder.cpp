@@ -1,5 +1,7 @@
 #include "fast_grasp/grasping/standing_cylinder.h"
 
+#include "fast_grasp/grasping/grasp_geometry.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -15,13 +17,6 @@ namespace
 /// seen footprint's longer side is a flat face's (a standing box's two seen faces fitted a
 /// 25 cm circle to a 16 cm box).
 constexpr float kMaxDiameterToFootprint = 1.2f;
-
-float medianOf(std::vector<float>& values)
-{
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
 
 /// Angle the directions `angles` (rad) span: the full turn less the widest gap between them.
 float angularSpan(std::vector<float> angles)
@@ -158,8 +153,8 @@ StandingSection fitStandingSection(const ObjectView& view, const ObjectExtent& e
     angles.push_back(std::acos(std::min(std::abs(normals[i].dot(radial.normalized())), 1.0f)));
     directions.push_back(std::atan2(radial.y(), radial.x()));
   }
-  out.median_residual_m = medianOf(residuals);
-  out.median_normal_angle_rad = angles.empty() ? static_cast<float>(M_PI) : medianOf(angles);
+  out.median_residual_m = medianInPlace(residuals);
+  out.median_normal_angle_rad = angles.empty() ? static_cast<float>(M_PI) : medianInPlace(angles);
   out.arc_rad = angularSpan(std::move(directions));
   if (2.0f * out.radius_m > kMaxDiameterToFootprint * extent.length_m)
     out.why = "circle wider than the object";

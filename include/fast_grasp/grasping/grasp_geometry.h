@@ -26,6 +26,10 @@ template <typename PointT>
 PrincipalFrame computePrincipalFrame(const pcl::PointCloud<PointT>& cloud,
                                      const std::vector<int>& indices = {});
 
+/// The median of `values` (the upper one of an even count), found in place: their order changes.
+/// `values` must not be empty.
+float medianInPlace(std::vector<float>& values);
+
 /// Least-squares line y = k x + b through 2-D points (Eq. 3.5).
 struct LineFit
 {
