@@ -93,6 +93,9 @@ def parse_args(argv):
                         "cache scripts/fetch_ycb.sh fills)")
     p.add_argument("--grasp-offline", default="", help="path of grasp_offline (default: from the catkin devel space)")
     p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--keep-scenes", default="",
+                   help="keep every view's renderer scene (scene.yaml + object.stl) in DIR/<object>_pose<P>_view<V>, "
+                        "to replay it with grasp_offline --scene")
     return p.parse_args(argv)
 
 
@@ -237,7 +240,11 @@ def evaluate_scene(job):
                 rows.append(dict(base, planner="*", status="DoesNotFit", message="wider than the opening"))
                 continue
             eye, target = camera_for(centre, rng)
-            scene_yaml, _ = write_render_scene(folder, obj, rest_pos, turned, eye, target, seed % 100000 + view)
+            view_folder = folder
+            if args.keep_scenes:
+                view_folder = os.path.join(args.keep_scenes, "%s_pose%d_view%d" % (obj.name, pose_index, view))
+                os.makedirs(view_folder, exist_ok=True)
+            scene_yaml, _ = write_render_scene(view_folder, obj, rest_pos, turned, eye, target, seed % 100000 + view)
             object_pcd = os.path.join(folder, "object.pcd")
             saved = False
             for planner in planners:

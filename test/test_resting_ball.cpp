@@ -113,8 +113,58 @@ TEST(RestingBall, AFlatRoundBodyIsFittedAsAnEllipsoidWhenAllowed)
   const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.038 }, down, across), gripper, pebble, params));
   EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.05 }, down, across), gripper, pebble, params));
+  // It is flat (2 cm high against a 3.5 cm half-breadth): with the shipped extra depth (0.2 of
+  // its 2 cm half-height = 4 mm past the centre) the tips 2 mm past it no longer do, 6 mm past do.
+  EXPECT_TRUE(isFlatRoundBody(pebble, params));
+  params.flat_min_fingertip_past_centre_frac = 0.2;
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.038 }, down, across), gripper, pebble, params));
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.034 }, down, across), gripper, pebble, params));
   // A box of the same footprint is still no round body.
   EXPECT_FALSE(fit(viewOf(synthetic::makeBox({ 0.0, 0.0, 0.02 }, { 0.09, 0.07, 0.04 })), params).found);
+}
+
+TEST(RestingBall, AFlatBodysFingertipsMustPassItsCentreABallsNeedNot)
+{
+  // Hand-placed bodies; fingertips finger_depth_m / 2 = 2 cm ahead of the grasp centre, top-down.
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  RestingBallParams params = enabled();
+  params.flat_min_fingertip_past_centre_frac = 0.2;
+  const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
+  // A pebble 9 x 7 x 4 cm lying flat (centre 2 cm up): 0.57 times as high as broad, flat. It
+  // needs the tips 0.2 x 2 cm = 4 mm past its centre: at 1.7 cm (3 mm past) dropped, at 1.5 cm kept.
+  RestingBall pebble;
+  pebble.found = true;
+  pebble.centre = Eigen::Vector3f(0.0f, 0.0f, 0.02f);
+  pebble.radius_m = 0.02f;
+  pebble.horizontal_half_axes_m = Eigen::Vector2f(0.045f, 0.035f);
+  EXPECT_TRUE(isFlatRoundBody(pebble, params));
+  EXPECT_NEAR(fingertipReachPastCentre(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble), 0.003, 1e-6);
+  EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble, params));
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.035 }, down, across), gripper, pebble, params));
+  // Without the extra depth (0) the old rule alone: reaching the centre is enough.
+  RestingBallParams plain = params;
+  plain.flat_min_fingertip_past_centre_frac = 0.0;
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble, plain));
+  // An 8 cm ball (all half-axes 4 cm) is not flat: tips 1.3 cm short of its centre, 2.7 cm
+  // into it, still hold.
+  RestingBall ball;
+  ball.found = true;
+  ball.centre = Eigen::Vector3f(0.0f, 0.0f, 0.04f);
+  ball.radius_m = 0.04f;
+  ball.horizontal_half_axes_m = Eigen::Vector2f(0.04f, 0.04f);
+  EXPECT_FALSE(isFlatRoundBody(ball, params));
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.073 }, down, across), gripper, ball, params));
+  // Nor is a lemon on its side (7.2 x 5.4 x 5.4 cm): as high as it is broad. Tips 2 mm short of
+  // its centre, 2.5 cm into it, are kept.
+  RestingBall lemon = ball;
+  lemon.centre = Eigen::Vector3f(0.0f, 0.0f, 0.027f);
+  lemon.radius_m = 0.027f;
+  lemon.horizontal_half_axes_m = Eigen::Vector2f(0.036f, 0.027f);
+  EXPECT_FALSE(isFlatRoundBody(lemon, params));
+  EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.049 }, down, across), gripper, lemon, params));
+  // A fit without half-axes (zero) says nothing of flatness.
+  pebble.horizontal_half_axes_m = Eigen::Vector2f::Zero();
+  EXPECT_FALSE(isFlatRoundBody(pebble, params));
 }
 
 TEST(RestingBall, FingertipsMustReachTheGripDepthOrPassTheCentre)
@@ -192,8 +242,16 @@ TEST(RestingBall, TheShippedConfigChecksBallsAndBadParametersAreRefused)
                std::runtime_error);
   EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape]\nresting_ball: {radius: 0.03}")),
                std::runtime_error);
+  EXPECT_DOUBLE_EQ(config.hold_check.resting_ball.flat_max_height_to_breadth, 0.75);
+  EXPECT_DOUBLE_EQ(config.hold_check.resting_ball.flat_min_fingertip_past_centre_frac, 0.2);
   RestingBallParams p = enabled();
   p.max_median_normal_angle_rad = 0.0;
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.flat_max_height_to_breadth = 1.0;  // a ball would be flat
+  EXPECT_NE(p.validate(), "");
+  p = enabled();
+  p.flat_min_fingertip_past_centre_frac = 1.5;
   EXPECT_NE(p.validate(), "");
   p = enabled();
   p.min_points = 2;
