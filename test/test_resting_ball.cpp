@@ -38,6 +38,18 @@ RestingBall fit(const ObjectView& view, const RestingBallParams& params = enable
   return fitRestingBall(view, objectExtent(view), params);
 }
 
+/// A found body resting on the table at the origin: half-height `radius_m`, footprint half-axes
+/// `major_m` x `minor_m`.
+RestingBall restingBody(float radius_m, float major_m, float minor_m)
+{
+  RestingBall body;
+  body.found = true;
+  body.centre = Eigen::Vector3f(0.0f, 0.0f, radius_m);
+  body.radius_m = radius_m;
+  body.horizontal_half_axes_m = Eigen::Vector2f(major_m, minor_m);
+  return body;
+}
+
 }  // namespace
 
 TEST(RestingBall, ABallOnTheTableIsFoundWithItsCentreAndRadius)
@@ -132,11 +144,7 @@ TEST(RestingBall, AFlatBodysFingertipsMustPassItsCentreABallsNeedNot)
   const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
   // A pebble 9 x 7 x 4 cm lying flat (centre 2 cm up): 0.57 times as high as broad, flat. It
   // needs the tips 0.2 x 2 cm = 4 mm past its centre: at 1.7 cm (3 mm past) dropped, at 1.5 cm kept.
-  RestingBall pebble;
-  pebble.found = true;
-  pebble.centre = Eigen::Vector3f(0.0f, 0.0f, 0.02f);
-  pebble.radius_m = 0.02f;
-  pebble.horizontal_half_axes_m = Eigen::Vector2f(0.045f, 0.035f);
+  RestingBall pebble = restingBody(0.02f, 0.045f, 0.035f);
   EXPECT_TRUE(isFlatRoundBody(pebble, params));
   EXPECT_NEAR(fingertipReachPastCentre(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble), 0.003, 1e-6);
   EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble, params));
@@ -147,19 +155,12 @@ TEST(RestingBall, AFlatBodysFingertipsMustPassItsCentreABallsNeedNot)
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble, plain));
   // An 8 cm ball (all half-axes 4 cm) is not flat: tips 1.3 cm short of its centre, 2.7 cm
   // into it, still hold.
-  RestingBall ball;
-  ball.found = true;
-  ball.centre = Eigen::Vector3f(0.0f, 0.0f, 0.04f);
-  ball.radius_m = 0.04f;
-  ball.horizontal_half_axes_m = Eigen::Vector2f(0.04f, 0.04f);
+  const RestingBall ball = restingBody(0.04f, 0.04f, 0.04f);
   EXPECT_FALSE(isFlatRoundBody(ball, params));
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.073 }, down, across), gripper, ball, params));
   // Nor is a lemon on its side (7.2 x 5.4 x 5.4 cm): as high as it is broad. Tips 2 mm short of
   // its centre, 2.5 cm into it, are kept.
-  RestingBall lemon = ball;
-  lemon.centre = Eigen::Vector3f(0.0f, 0.0f, 0.027f);
-  lemon.radius_m = 0.027f;
-  lemon.horizontal_half_axes_m = Eigen::Vector2f(0.036f, 0.027f);
+  const RestingBall lemon = restingBody(0.027f, 0.036f, 0.027f);
   EXPECT_FALSE(isFlatRoundBody(lemon, params));
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.049 }, down, across), gripper, lemon, params));
   // A fit without half-axes (zero) says nothing of flatness.
