@@ -16,6 +16,13 @@ namespace fast_grasp
 {
 namespace
 {
+/// A section's parameters that its validate() found wrong (`problem` not empty) stop the load.
+void throwIfInvalid(const char* section, const std::string& problem)
+{
+  if (!problem.empty())
+    throw std::runtime_error(std::string(section) + ": " + problem);
+}
+
 /// Reads typed keys of one section and remembers which were read, so that any other key
 /// (a typo such as `sweep_step: 0.002`) is reported instead of silently ignored.
 class SectionReader
@@ -229,9 +236,7 @@ CShapeParams cshapeParamsFromYaml(const YAML::Node& section)
   p.gripper_fit = gripperFitFromYaml(reader, "cshape");
   reader.rejectUnknownKeys();
   // The planner owns the rules on its parameters; apply them here so a bad file fails at load.
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("cshape: " + problem);
+  throwIfInvalid("cshape", p.validate());
   return p;
 }
 
@@ -264,9 +269,7 @@ BoundaryParams boundaryParamsFromYaml(const YAML::Node& section)
   readUnseenPart(reader, p.use_unseen_part, p.unseen);
   p.gripper_fit = gripperFitFromYaml(reader, "boundary");
   reader.rejectUnknownKeys();
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("boundary: " + problem);
+  throwIfInvalid("boundary", p.validate());
   return p;
 }
 
@@ -299,9 +302,7 @@ ConcavityParams concavityParamsFromYaml(const YAML::Node& section)
   reader.readCount("max_recorded_candidates", p.max_recorded_candidates, 0);
   p.gripper_fit = gripperFitFromYaml(reader, "concavity");
   reader.rejectUnknownKeys();
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("concavity: " + problem);
+  throwIfInvalid("concavity", p.validate());
   return p;
 }
 
@@ -377,9 +378,7 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     }
   }
   reader.rejectUnknownKeys();
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("fused: " + problem);
+  throwIfInvalid("fused", p.validate());
   return p;
 }
 
@@ -396,9 +395,7 @@ TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
   reader.read("neighbour_unseen_parts", p.neighbour_unseen_parts);
   reader.readPositive("unseen_extension_m", p.unseen.extension_m);
   reader.rejectUnknownKeys();
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("table_grasps: " + problem);
+  throwIfInvalid("table_grasps", p.validate());
   return p;
 }
 
@@ -420,9 +417,7 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
     ball.readNonNegative("flat_max_height_to_breadth", config.resting_ball.flat_max_height_to_breadth);
     ball.readNonNegative("flat_min_fingertip_past_centre_frac", config.resting_ball.flat_min_fingertip_past_centre_frac);
     ball.rejectUnknownKeys();
-    const std::string problem = config.resting_ball.validate();
-    if (!problem.empty())
-      throw std::runtime_error("hold_check: " + problem);
+    throwIfInvalid("hold_check", config.resting_ball.validate());
   }
   {
     SectionReader standing(reader.child("standing_cylinder"), "hold_check/standing_cylinder");
@@ -436,9 +431,7 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
     standing.readNonNegative("min_arc_rad", s.min_arc_rad);
     standing.readNonNegative("max_shortfall_frac", s.max_shortfall_frac);
     standing.rejectUnknownKeys();
-    const std::string problem = s.validate();
-    if (!problem.empty())
-      throw std::runtime_error("hold_check: " + problem);
+    throwIfInvalid("hold_check", s.validate());
   }
   reader.rejectUnknownKeys();
   return config;
@@ -455,9 +448,7 @@ NearRangeParams nearRangeParamsFromYaml(const YAML::Node& section)
   reader.readPositive("step_m", p.step_m);
   reader.read("toward_camera", p.toward_camera);
   reader.rejectUnknownKeys();
-  const std::string problem = p.validate();
-  if (!problem.empty())
-    throw std::runtime_error("near_range: " + problem);
+  throwIfInvalid("near_range", p.validate());
   return p;
 }
 
