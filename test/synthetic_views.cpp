@@ -226,6 +226,8 @@ CloudNormal::Ptr renderView(const std::vector<Shape>& shapes, const ViewParams& 
       }
       if (best_t == kNoHit)
         continue;
+      if (view.max_incidence_rad > 0.0 && std::abs(best_normal.dot(direction)) < std::cos(view.max_incidence_rad))
+        continue;  // a surface this oblique to the ray returns nothing
       if (view.noise_stddev_m > 0.0)
         best_t += noise(rng);
       const Eigen::Vector3d p = view.viewpoint + best_t * direction;

@@ -48,6 +48,9 @@ struct ViewParams
   /// Gaussian noise added along each ray (depth noise), 0 for none.
   double noise_stddev_m = 0.0;
   unsigned noise_seed = 1;
+  /// A surface meeting the ray more obliquely than this returns no point, as with a depth
+  /// camera (the Xtion's 70 deg, xtion_renderer.h); 0 = every hit is returned.
+  double max_incidence_rad = 0.0;
 };
 
 /// Casts one ray per grid cell from the viewpoint and keeps the nearest hit on any shape.

@@ -312,6 +312,10 @@ std::string FusedParams::validate() const
     why << "deepen_pooled_max_m must be in [0, 0.2] m; ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
     why << "min_success_probability must be in [0, 1]; ";
+  if (!(wide_lying_body.mirror.min_elongation >= 1.0) ||
+      !(wide_lying_body.mirror.max_free_fraction >= 0.0 && wide_lying_body.mirror.max_free_fraction <= 1.0) ||
+      !(wide_lying_body.min_excess_over_opening_m >= -0.1 && wide_lying_body.min_excess_over_opening_m <= 0.1))
+    why << "wide_lying_body: min_elongation must be >= 1, max_free_fraction in [0, 1], min_excess_over_opening_m in [-0.1, 0.1] m; ";
   why << gripper_fit.validate() << lying_cylinder.validate() << model.validate();
   return why.str();
 }
@@ -329,10 +333,30 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     bad->compute_time_s = watch.elapsedSeconds();
     return *bad;
   }
+  std::ostringstream summary;
+  if (params_.wide_lying_body.enabled && full_view.has_table_plane && !full_view.sensor_origins.empty())
+  {
+    const MirrorCompletion body = completeByMirror(*full_view.cloud, full_view.sensor_origins.front(),
+                                                   full_view.table_plane, params_.wide_lying_body.mirror);
+    if (body.ok())
+    {
+      summary << "lying body " << std::lround(1000.0 * body.width_m) << " mm wide once mirrored; ";
+      if (body.width_m > gripper.max_opening_m + params_.wide_lying_body.min_excess_over_opening_m)
+      {
+        std::ostringstream why;
+        why << "fused: a body lying along the table, " << std::lround(1000.0 * body.width_m)
+            << " mm wide once its hidden far side is mirrored from its near side, is wider than the hand's "
+            << std::lround(1000.0 * gripper.max_opening_m)
+            << " mm opening: nothing closes across it near its mass, and a grasp on its end drops it";
+        GraspResult refused = GraspResult::fail(GraspFailure::NoStableGrasp, why.str());
+        refused.compute_time_s = watch.elapsedSeconds();
+        return refused;
+      }
+    }
+  }
   const ObjectView view = thinned(full_view, params_.max_pooled_points);
   const ObjectExtent extent = objectExtent(view);
   std::vector<Generated> pool;
-  std::ostringstream summary;
   GraspResult result;
   CloudXYZ unseen;  // the pooled planners' unseen part (Ch. 6), for the deeper copies' hand check
   for (const auto& planner : planners_)

@@ -359,6 +359,14 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     lying.read("open_hand_approach_m", p.lying_cylinder.open_hand_approach_m);
     lying.rejectUnknownKeys();
   }
+  {
+    SectionReader wide(reader.child("wide_lying_body"), "fused/wide_lying_body");
+    wide.read("enabled", p.wide_lying_body.enabled);
+    wide.readNonNegative("min_elongation", p.wide_lying_body.mirror.min_elongation);
+    wide.readNonNegative("max_free_fraction", p.wide_lying_body.mirror.max_free_fraction);
+    wide.read("min_excess_over_opening_m", p.wide_lying_body.min_excess_over_opening_m);
+    wide.rejectUnknownKeys();
+  }
   SectionReader model(reader.child("model"), "fused/model");
   model.read("bias", p.model.bias);
   std::map<std::string, double> weights;

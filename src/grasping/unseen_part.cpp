@@ -1,5 +1,7 @@
 #include "fast_grasp/grasping/unseen_part.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -151,7 +153,178 @@ private:
   std::vector<float> depth_;  // nearest depth per cell, kEmpty if none
   std::vector<int> nearest_;  // cloud index of that point
 };
+
+/// The median over 1 cm slices along `along` of the points' extent across `across` once each
+/// slice is joined with its mirror image about across = plane_offset (slices with fewer than 5
+/// points are skipped; 0 when none is left).
+double medianMirroredWidth(const pcl::PointCloud<pcl::PointNormal>& cloud, const std::vector<int>& finite,
+                           const Eigen::Vector3f& along, const Eigen::Vector3f& across, float along_low,
+                           float plane_offset)
+{
+  constexpr float kSliceM = 0.01f;
+  constexpr std::size_t kMinSlicePoints = 5;
+  struct Slice
+  {
+    float low = kEmpty, high = -kEmpty;
+    std::size_t points = 0;
+  };
+  std::vector<Slice> slices;
+  for (int index : finite)
+  {
+    const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(index)].getVector3fMap();
+    const auto slice = static_cast<std::size_t>(std::max(0.0f, (p.dot(along) - along_low) / kSliceM));
+    if (slice >= slices.size())
+      slices.resize(slice + 1);
+    slices[slice].low = std::min(slices[slice].low, p.dot(across));
+    slices[slice].high = std::max(slices[slice].high, p.dot(across));
+    ++slices[slice].points;
+  }
+  std::vector<float> widths;
+  for (const Slice& slice : slices)
+    if (slice.points >= kMinSlicePoints)
+      widths.push_back(std::max(slice.high, 2.0f * plane_offset - slice.low) -
+                       std::min(slice.low, 2.0f * plane_offset - slice.high));
+  if (widths.empty())
+    return 0.0;
+  std::nth_element(widths.begin(), widths.begin() + static_cast<std::ptrdiff_t>(widths.size() / 2), widths.end());
+  return static_cast<double>(widths[widths.size() / 2]);
+}
 }  // namespace
+
+MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud, const Eigen::Vector3f& sensor_origin,
+                                  const Eigen::Vector4f& table_plane, const MirrorCompletionParams& params)
+{
+  // Points within this of level across the axis (sin ~6 deg) and normals within ~25 deg of up
+  // make the level top; fewer than kMinLevelPoints of them and there is no top to mirror about.
+  constexpr float kLevelAcross = 0.1f;
+  constexpr float kLevelUp = 0.9f;
+  constexpr std::size_t kMinLevelPoints = 10;
+  MirrorCompletion completion;
+  const float up_norm = table_plane.head<3>().norm();
+  if (!(params.min_elongation >= 1.0) || !(params.max_free_fraction >= 0.0 && params.max_free_fraction <= 1.0))
+  {
+    completion.failure = "invalid MirrorCompletionParams (min_elongation below 1 or free fraction outside [0, 1])";
+    return completion;
+  }
+  if (!table_plane.allFinite() || !(up_norm > 1e-6f))
+  {
+    completion.failure = "no table plane to stand the mirror plane on";
+    return completion;
+  }
+  std::vector<int> finite;
+  finite.reserve(cloud.size());
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (cloud.points[i].getVector3fMap().allFinite())
+    {
+      finite.push_back(static_cast<int>(i));
+      sum += cloud.points[i].getVector3fMap().cast<double>();
+    }
+  if (finite.size() < kMinLevelPoints)
+  {
+    completion.failure = "too few finite points";
+    return completion;
+  }
+  ViewGrid grid;
+  if (!sensor_origin.allFinite() ||
+      !grid.build(cloud, finite, sensor_origin, (sum / static_cast<double>(finite.size())).cast<float>(), 0.0, 0.0, 256))
+  {
+    completion.failure = "the sensor origin coincides with the object or sees none of it";
+    return completion;
+  }
+  const auto tolerance_m = static_cast<float>(grid.cellMetres());
+  const Eigen::Vector3f up = table_plane.head<3>() / up_norm;
+  const Eigen::Vector3f e1 = up.unitOrthogonal();
+  const Eigen::Vector3f e2 = up.cross(e1);
+  // The footprint's long axis: principal direction of the points projected on the table.
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int index : finite)
+  {
+    const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(index)].getVector3fMap();
+    mean += Eigen::Vector2d(p.dot(e1), p.dot(e2));
+  }
+  mean /= static_cast<double>(finite.size());
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
+  for (int index : finite)
+  {
+    const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(index)].getVector3fMap();
+    const Eigen::Vector2d d = Eigen::Vector2d(p.dot(e1), p.dot(e2)) - mean;
+    covariance += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(covariance);
+  const Eigen::Vector2d major = eigen.eigenvectors().col(1);
+  const Eigen::Vector3f along = (static_cast<float>(major.x()) * e1 + static_cast<float>(major.y()) * e2).normalized();
+  const Eigen::Vector3f across = up.cross(along);
+  float along_low = kEmpty, along_high = -kEmpty, across_low = kEmpty, across_high = -kEmpty;
+  std::vector<float> level_across;
+  for (int index : finite)
+  {
+    const auto& q = cloud.points[static_cast<std::size_t>(index)];
+    const Eigen::Vector3f p = q.getVector3fMap();
+    along_low = std::min(along_low, p.dot(along));
+    along_high = std::max(along_high, p.dot(along));
+    across_low = std::min(across_low, p.dot(across));
+    across_high = std::max(across_high, p.dot(across));
+    Eigen::Vector3f n(q.normal_x, q.normal_y, q.normal_z);
+    if (!n.allFinite() || n.norm() < 1e-6f)
+      continue;
+    n.normalize();
+    if (n.dot(up) < 0.0f)
+      n = -n;
+    if (std::abs(n.dot(across)) < kLevelAcross && n.dot(up) > kLevelUp)
+      level_across.push_back(p.dot(across));
+  }
+  const float width = across_high - across_low;
+  if (!(width > 1e-4f) || (along_high - along_low) < static_cast<float>(params.min_elongation) * width)
+  {
+    completion.failure = "footprint not elongated";
+    return completion;
+  }
+  if (level_across.size() < kMinLevelPoints)
+  {
+    completion.failure = "no level top to mirror about";
+    return completion;
+  }
+  // The middle of the level top: the median over occupied bins (one point spacing wide) of
+  // their points' mean position, so the denser near half of a perspective view does not pull
+  // the plane toward the camera.
+  const float bin_m = std::max(1e-3f, tolerance_m / 2.5f);
+  std::sort(level_across.begin(), level_across.end());
+  std::vector<float> bin_means;
+  for (std::size_t begin = 0; begin < level_across.size();)
+  {
+    const int bin = static_cast<int>(std::floor((level_across[begin] - across_low) / bin_m));
+    std::size_t end = begin;
+    double bin_sum = 0.0;
+    while (end < level_across.size() && static_cast<int>(std::floor((level_across[end] - across_low) / bin_m)) == bin)
+      bin_sum += static_cast<double>(level_across[end++]);
+    bin_means.push_back(static_cast<float>(bin_sum / static_cast<double>(end - begin)));
+    begin = end;
+  }
+  const float plane_offset = bin_means[bin_means.size() / 2];
+  std::size_t seen_free = 0;
+  for (int index : finite)
+  {
+    const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(index)].getVector3fMap();
+    const Eigen::Vector3f m = p - 2.0f * (p.dot(across) - plane_offset) * across;
+    if (grid.seesAsFree(m, tolerance_m))
+      ++seen_free;
+    else
+      completion.mirrored.push_back(pcl::PointXYZ(m.x(), m.y(), m.z()));
+  }
+  if (static_cast<double>(seen_free) > params.max_free_fraction * static_cast<double>(finite.size()))
+  {
+    completion.mirrored.clear();
+    completion.failure = "not mirror symmetric: " + std::to_string(seen_free) + " of " + std::to_string(finite.size()) +
+                         " mirrored points fall where the camera saw free space";
+    return completion;
+  }
+  completion.along = along;
+  completion.across = across;
+  completion.length_m = static_cast<double>(along_high - along_low);
+  completion.width_m = medianMirroredWidth(cloud, finite, along, across, along_low, plane_offset);
+  return completion;
+}
 
 template <typename PointT>
 UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vector<Eigen::Vector3f>& sensor_origins,

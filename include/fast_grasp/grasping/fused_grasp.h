@@ -15,6 +15,7 @@
 #include "fast_grasp/grasping/gripper_volume.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
 #include "fast_grasp/grasping/planner_input.h"
+#include "fast_grasp/grasping/unseen_part.h"
 
 #include <map>
 #include <memory>
@@ -77,6 +78,19 @@ struct FusedParams
   /// the fused planner's time: 5 instead of 10 cut 24.5 -> 19.6 ms at 10k points with the same
   /// physics outcome in all 99 training trials.
   std::map<std::string, std::size_t> pooled_max_grasps;
+  /// Beyond the thesis: a body lying along the table that is wider than the hand's opening once
+  /// its hidden far side is completed by mirror symmetry (unseen_part.h, completeByMirror) gets
+  /// no grasp (NoStableGrasp, saying so). Nothing closes across its middle, and what the pool
+  /// offers instead (its cap, an end, a finger on the hidden side) drops it: in the clutter
+  /// training piles a bleach bottle lying on its broad face (9.8 cm, seen 7.5-8 cm) held 2 of
+  /// its 11 attempts and was 9 of the 28 failed grasps. Refused when the completed width
+  /// exceeds max_opening_m by more than min_excess_over_opening_m.
+  struct WideLyingBody
+  {
+    bool enabled = false;
+    MirrorCompletionParams mirror;
+    double min_excess_over_opening_m = 0.0;
+  } wide_lying_body;
   /// Grasps returned (best first) and the success probability a grasp needs to be returned.
   std::size_t max_grasps = 10;
   double min_success_probability = 0.0;

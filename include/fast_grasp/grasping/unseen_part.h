@@ -67,4 +67,42 @@ UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vect
                            const UnseenPartParams& params = {},
                            const std::optional<Eigen::Vector4f>& table_plane = std::nullopt);
 
+/// Beyond the thesis: mirror completion (Bohg et al. 2011, "Mind the gap"). An object lying
+/// along the table is taken as mirror symmetric about the vertical plane through its long
+/// axis, placed where its top is level (the median across-axis position of the seen points
+/// whose normal is within ~6 deg of vertical across the axis and ~25 deg of up). A bottle lying
+/// on its broad face is seen 7.5-8 of its 9.8 cm wide (its far side turns away from the
+/// camera); its mirrored near side is where the far side is.
+struct MirrorCompletionParams
+{
+  /// Only footprints at least this many times longer than wide are mirrored.
+  double min_elongation = 1.5;
+  /// ... and only if at most this fraction of the mirrored points fall where the camera saw
+  /// free space (else the object is not symmetric that way).
+  double max_free_fraction = 0.1;
+};
+
+struct MirrorCompletion
+{
+  /// The seen points mirrored across the plane, less those where the camera saw free space.
+  pcl::PointCloud<pcl::PointXYZ> mirrored;
+  /// Horizontal unit vectors along the footprint's long axis and across it.
+  Eigen::Vector3f along = Eigen::Vector3f::UnitX();
+  Eigen::Vector3f across = Eigen::Vector3f::UnitY();
+  /// The completed object's width across the plane: the median over 1 cm slices along its
+  /// length of the seen points' extent joined with their mirror image's (a bottle's body, not
+  /// its cap); and its seen length along the axis.
+  double width_m = 0.0;
+  double length_m = 0.0;
+  /// Empty when completed; otherwise why not (not elongated, no level top, not symmetric, ...).
+  std::string failure;
+
+  bool ok() const { return failure.empty(); }
+};
+
+/// Completes `cloud` (with normals, seen from `sensor_origin`, resting on `table_plane` whose
+/// (a, b, c) points up) by its mirror image, or says why it is not mirror symmetric that way.
+MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud, const Eigen::Vector3f& sensor_origin,
+                                  const Eigen::Vector4f& table_plane, const MirrorCompletionParams& params = {});
+
 }  // namespace fast_grasp
