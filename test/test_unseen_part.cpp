@@ -84,11 +84,11 @@ TEST(MirrorCompletion, OnlyElongatedFootprintsAndConsistentMirrorsAreCompleted)
   // A cube's footprint is as wide as long: no long axis to mirror across.
   const CloudNormal::Ptr cube = renderView(makeBox(Eigen::Vector3d(0, 0, 0.04), Eigen::Vector3d::Constant(0.08)), ViewParams{ eye });
   EXPECT_EQ(completeByMirror(*cube, eye.cast<float>(), kTable).failure, "footprint not elongated");
-  // A long bar with a tall block on its camera side: its level tops put the plane between
-  // them, and the mirrored block would stand in the open, where the camera saw the table
-  // (outside the silhouette); with no tolerance for that, nothing is mirrored.
+  // A long bar with a block as high on its camera side: their level tops put the plane
+  // between them, and the mirrored block would stand in the open, where the camera saw the
+  // table (outside the silhouette); with no tolerance for that, nothing is mirrored.
   const std::vector<Shape> bar_and_block{ makeBox(Eigen::Vector3d(0.0, 0.0, 0.02), Eigen::Vector3d(0.04, 0.24, 0.04)),
-                                          makeBox(Eigen::Vector3d(-0.05, 0.08, 0.05), Eigen::Vector3d(0.06, 0.06, 0.1)) };
+                                          makeBox(Eigen::Vector3d(-0.05, 0.08, 0.02), Eigen::Vector3d(0.06, 0.06, 0.04)) };
   const CloudNormal::Ptr seen = renderView(bar_and_block, ViewParams{ eye });
   MirrorCompletionParams params;
   params.max_free_fraction = 0.0;
@@ -98,6 +98,20 @@ TEST(MirrorCompletion, OnlyElongatedFootprintsAndConsistentMirrorsAreCompleted)
   EXPECT_EQ(refused.width_m, 0.0);
   params.max_free_fraction = 1.0;
   EXPECT_TRUE(completeByMirror(*seen, eye.cast<float>(), kTable, params).ok());
+}
+
+TEST(MirrorCompletion, AnOpenTraysInsideIsNotATopToMirrorAbout)
+{
+  // A tray 25 cm long and 12 cm wide: a 1 cm floor and two 4 cm walls along its long sides.
+  // Its level part is mostly the floor, in the bottom quarter of its height: it is not a closed
+  // body (nor is a pan), and nothing is mirrored.
+  const Eigen::Vector3d eye(-0.45, 0.05, 0.5);
+  const std::vector<Shape> tray{ makeBox(Eigen::Vector3d(0.0, 0.0, 0.005), Eigen::Vector3d(0.12, 0.25, 0.01)),
+                                 makeBox(Eigen::Vector3d(-0.055, 0.0, 0.02), Eigen::Vector3d(0.01, 0.25, 0.04)),
+                                 makeBox(Eigen::Vector3d(0.055, 0.0, 0.02), Eigen::Vector3d(0.01, 0.25, 0.04)) };
+  const MirrorCompletion completion = completeByMirror(*renderView(tray, ViewParams{ eye }), eye.cast<float>(), kTable);
+  EXPECT_EQ(completion.failure, "its level part is not its top (a container's inside, a step)");
+  EXPECT_TRUE(completion.mirrored.empty());
 }
 
 TEST(MirrorCompletion, BadInputIsAReasonNotACrash)

@@ -155,11 +155,13 @@ private:
 };
 
 /// The median over 1 cm slices along `along` of the points' extent across `across` once each
-/// slice is joined with its mirror image about across = plane_offset (slices with fewer than 5
-/// points are skipped; 0 when none is left).
+/// slice is joined with its mirror image about across = plane_offset. Only slices under the
+/// level top (`level_along`: its points' positions along the axis) count, where the plane was
+/// found: a pan mirrored about its handle's top is not as wide as its dish. Slices with fewer
+/// than 5 points are skipped; 0 when none is left.
 double medianMirroredWidth(const pcl::PointCloud<pcl::PointNormal>& cloud, const std::vector<int>& finite,
                            const Eigen::Vector3f& along, const Eigen::Vector3f& across, float along_low,
-                           float plane_offset)
+                           float plane_offset, const std::vector<float>& level_along)
 {
   constexpr float kSliceM = 0.01f;
   constexpr std::size_t kMinSlicePoints = 5;
@@ -167,21 +169,28 @@ double medianMirroredWidth(const pcl::PointCloud<pcl::PointNormal>& cloud, const
   {
     float low = kEmpty, high = -kEmpty;
     std::size_t points = 0;
+    bool under_level_top = false;
+  };
+  const auto sliceOf = [&](float position) {
+    return static_cast<std::size_t>(std::max(0.0f, (position - along_low) / kSliceM));
   };
   std::vector<Slice> slices;
   for (int index : finite)
   {
     const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(index)].getVector3fMap();
-    const auto slice = static_cast<std::size_t>(std::max(0.0f, (p.dot(along) - along_low) / kSliceM));
+    const std::size_t slice = sliceOf(p.dot(along));
     if (slice >= slices.size())
       slices.resize(slice + 1);
     slices[slice].low = std::min(slices[slice].low, p.dot(across));
     slices[slice].high = std::max(slices[slice].high, p.dot(across));
     ++slices[slice].points;
   }
+  for (float position : level_along)
+    if (sliceOf(position) < slices.size())
+      slices[sliceOf(position)].under_level_top = true;
   std::vector<float> widths;
   for (const Slice& slice : slices)
-    if (slice.points >= kMinSlicePoints)
+    if (slice.points >= kMinSlicePoints && slice.under_level_top)
       widths.push_back(std::max(slice.high, 2.0f * plane_offset - slice.low) -
                        std::min(slice.low, 2.0f * plane_offset - slice.high));
   if (widths.empty())
@@ -199,6 +208,7 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
   constexpr float kLevelAcross = 0.1f;
   constexpr float kLevelUp = 0.9f;
   constexpr std::size_t kMinLevelPoints = 10;
+  constexpr float kTopFraction = 0.75f;
   MirrorCompletion completion;
   const float up_norm = table_plane.head<3>().norm();
   if (!(params.min_elongation >= 1.0) || !(params.max_free_fraction >= 0.0 && params.max_free_fraction <= 1.0))
@@ -256,7 +266,8 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
   const Eigen::Vector3f along = (static_cast<float>(major.x()) * e1 + static_cast<float>(major.y()) * e2).normalized();
   const Eigen::Vector3f across = up.cross(along);
   float along_low = kEmpty, along_high = -kEmpty, across_low = kEmpty, across_high = -kEmpty;
-  std::vector<float> level_across;
+  float top_height = -kEmpty;
+  std::vector<float> level_across, level_along, level_heights;
   for (int index : finite)
   {
     const auto& q = cloud.points[static_cast<std::size_t>(index)];
@@ -265,6 +276,8 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
     along_high = std::max(along_high, p.dot(along));
     across_low = std::min(across_low, p.dot(across));
     across_high = std::max(across_high, p.dot(across));
+    const float height = up.dot(p) + table_plane(3) / up_norm;
+    top_height = std::max(top_height, height);
     Eigen::Vector3f n(q.normal_x, q.normal_y, q.normal_z);
     if (!n.allFinite() || n.norm() < 1e-6f)
       continue;
@@ -272,7 +285,11 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
     if (n.dot(up) < 0.0f)
       n = -n;
     if (std::abs(n.dot(across)) < kLevelAcross && n.dot(up) > kLevelUp)
+    {
       level_across.push_back(p.dot(across));
+      level_along.push_back(p.dot(along));
+      level_heights.push_back(height);
+    }
   }
   const float width = across_high - across_low;
   if (!(width > 1e-4f) || (along_high - along_low) < static_cast<float>(params.min_elongation) * width)
@@ -283,6 +300,16 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
   if (level_across.size() < kMinLevelPoints)
   {
     completion.failure = "no level top to mirror about";
+    return completion;
+  }
+  // The level part must be the top: most of it in the top quarter of the height. A pan's
+  // level part is the bottom of its inside, below its rim, and a pan is no closed body whose
+  // hidden side mirrors its seen one.
+  std::nth_element(level_heights.begin(), level_heights.begin() + static_cast<std::ptrdiff_t>(level_heights.size() / 2),
+                   level_heights.end());
+  if (level_heights[level_heights.size() / 2] < kTopFraction * top_height)
+  {
+    completion.failure = "its level part is not its top (a container's inside, a step)";
     return completion;
   }
   // The middle of the level top: the median over occupied bins (one point spacing wide) of
@@ -322,7 +349,7 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
   completion.along = along;
   completion.across = across;
   completion.length_m = static_cast<double>(along_high - along_low);
-  completion.width_m = medianMirroredWidth(cloud, finite, along, across, along_low, plane_offset);
+  completion.width_m = medianMirroredWidth(cloud, finite, along, across, along_low, plane_offset, level_along);
   return completion;
 }
 

@@ -70,9 +70,11 @@ UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vect
 /// Beyond the thesis: mirror completion (Bohg et al. 2011, "Mind the gap"). An object lying
 /// along the table is taken as mirror symmetric about the vertical plane through its long
 /// axis, placed where its top is level (the median across-axis position of the seen points
-/// whose normal is within ~6 deg of vertical across the axis and ~25 deg of up). A bottle lying
-/// on its broad face is seen 7.5-8 of its 9.8 cm wide (its far side turns away from the
-/// camera); its mirrored near side is where the far side is.
+/// whose normal is within ~6 deg of vertical across the axis and ~25 deg of up; most of them
+/// must lie in the top quarter of the object's height, else it is no closed body: a pan's
+/// level part is its inside). A bottle lying on its broad face is seen 7.5-8 of its 9.8 cm
+/// wide (its far side turns away from the camera); its mirrored near side is where the far
+/// side is.
 struct MirrorCompletionParams
 {
   /// Only footprints at least this many times longer than wide are mirrored.
