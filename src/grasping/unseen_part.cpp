@@ -154,6 +154,28 @@ private:
   std::vector<int> nearest_;  // cloud index of that point
 };
 
+/// Indices of the points of `cloud` with finite coordinates, and their centroid (unset when
+/// there is none).
+template <typename PointT>
+std::vector<int> finiteIndices(const pcl::PointCloud<PointT>& cloud, Eigen::Vector3f& centroid)
+{
+  std::vector<int> finite;
+  finite.reserve(cloud.size());
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+  {
+    const auto& p = cloud.points[i];
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+    {
+      finite.push_back(static_cast<int>(i));
+      sum += Eigen::Vector3d(p.x, p.y, p.z);
+    }
+  }
+  if (!finite.empty())
+    centroid = (sum / static_cast<double>(finite.size())).cast<float>();
+  return finite;
+}
+
 /// The median over 1 cm slices along `along` of the points' extent across `across` once each
 /// slice is joined with its mirror image about across = plane_offset. Only slices under the
 /// level top (`level_along`: its points' positions along the axis) count, where the plane was
@@ -221,23 +243,15 @@ MirrorCompletion completeByMirror(const pcl::PointCloud<pcl::PointNormal>& cloud
     completion.failure = "no table plane to stand the mirror plane on";
     return completion;
   }
-  std::vector<int> finite;
-  finite.reserve(cloud.size());
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (cloud.points[i].getVector3fMap().allFinite())
-    {
-      finite.push_back(static_cast<int>(i));
-      sum += cloud.points[i].getVector3fMap().cast<double>();
-    }
+  Eigen::Vector3f centroid;
+  const std::vector<int> finite = finiteIndices(cloud, centroid);
   if (finite.size() < kMinLevelPoints)
   {
     completion.failure = "too few finite points";
     return completion;
   }
   ViewGrid grid;
-  if (!sensor_origin.allFinite() ||
-      !grid.build(cloud, finite, sensor_origin, (sum / static_cast<double>(finite.size())).cast<float>(), 0.0, 0.0, 256))
+  if (!sensor_origin.allFinite() || !grid.build(cloud, finite, sensor_origin, centroid, 0.0, 0.0, 256))
   {
     completion.failure = "the sensor origin coincides with the object or sees none of it";
     return completion;
@@ -369,24 +383,13 @@ UnseenPart buildUnseenPart(const pcl::PointCloud<PointT>& cloud, const std::vect
     unseen.failure = "invalid UnseenPartParams (negative length or grid smaller than 8 cells)";
     return unseen;
   }
-  std::vector<int> finite;
-  finite.reserve(cloud.size());
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-  {
-    const auto& p = cloud.points[i];
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-    {
-      finite.push_back(static_cast<int>(i));
-      sum += Eigen::Vector3d(p.x, p.y, p.z);
-    }
-  }
+  Eigen::Vector3f centroid;
+  const std::vector<int> finite = finiteIndices(cloud, centroid);
   if (finite.empty())
   {
     unseen.failure = "no finite point";
     return unseen;
   }
-  const Eigen::Vector3f centroid = (sum / static_cast<double>(finite.size())).cast<float>();
 
   std::vector<ViewGrid> grids(sensor_origins.size());
   for (std::size_t s = 0; s < sensor_origins.size(); ++s)
