@@ -780,6 +780,24 @@ TEST(TableSegmentation, TouchingObjectsAreCutAtTheirConcaveCrease)
   ASSERT_TRUE(result.ok()) << result.reason;
   EXPECT_EQ(result.clusters.size(), 1u);
 
+  // In a pile a flat box may lie on objects the camera cannot see, its bottom 5 cm above the
+  // table, with a small box standing on it: the flat box cannot stand, but the small box rests
+  // on it and cannot hold it up either (its bottom is higher): two objects.
+  auto lifted = scene(
+      [&](CloudXYZ& cloud, std::mt19937& rng, std::vector<std::size_t>& b) {
+        addBox(cloud, Eigen::Vector2f(0.6f, 0.0f), 0.05f, Eigen::Vector3f(0.16f, 0.2f, 0.06f), 0.005f, rng, eye);
+        b.push_back(cloud.size());
+        addBox(cloud, Eigen::Vector2f(0.6f, 0.02f), 0.11f, Eigen::Vector3f(0.05f, 0.06f, 0.04f), 0.005f, rng, eye);
+        b.push_back(cloud.size());
+      },
+      bounds);
+  result = segmentTable(lifted, euclidean_only);
+  EXPECT_EQ(result.clusters.size(), 1u);
+  result = segmentTable(lifted, params);
+  ASSERT_TRUE(result.ok()) << result.reason;
+  EXPECT_EQ(result.clusters.size(), 2u);
+  EXPECT_TRUE(comesOutAlone(result, bounds[1], bounds[2])) << "small box on the lifted one";
+
   // One convex object is never cut: a single can, a single box.
   auto can = scene(
       [&](CloudXYZ& cloud, std::mt19937& rng, std::vector<std::size_t>& b) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <numeric>
 #include <random>
@@ -102,7 +103,9 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::
 /// part of it. A piece stands when its lowest seen points are near the table,
 /// or when the table straight under them was not seen (something nearer hides it: the object
 /// may stand there, as a box behind another does, or it rests on a piece below). Joins each
-/// piece that cannot stand to the neighbour it shares most border links with.
+/// piece that cannot stand to the neighbour it shares most border links with, among those that
+/// reach lower than it: a neighbour whose bottom is above the piece's rests on it and cannot
+/// hold it up (a toy lying on a box that lies on hidden objects in a pile).
 void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableFootprint& table,
                                const ConcaveSplitParams& params, Pieces& objects)
@@ -138,7 +141,12 @@ void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<std::ve
         static_cast<double>(bottom_over_seen_table[object]) <
             params.floating_seen_fraction * static_cast<double>(bottom_points[object]))
       continue;
-    const std::map<std::size_t, int> border = borderLinks(links, objectOf, object);
+    std::map<std::size_t, int> border = borderLinks(links, objectOf, object);
+    for (auto it = border.begin(); it != border.end();)
+    {
+      const auto neighbour = lowest.find(it->first);
+      it = neighbour == lowest.end() || neighbour->second < low ? std::next(it) : border.erase(it);
+    }
     if (!border.empty())
       objects.join(object, mostLinked(border));
   }
