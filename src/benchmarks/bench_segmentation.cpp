@@ -288,6 +288,7 @@ int main(int argc, char** argv)
       "                    Euclidean clusters, --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n"
       "  --tolerance-rad R, --link-radius-m M, --k N, --min-piece N: the concave split's parameters\n"
       "  --join-occluded 0|1 join an object's pieces a nearer object hides in the middle (default: config's)\n"
+      "  --join-containers 0|1 join a container's inside to its outer wall across a gap (default: config's)\n"
       "  --min-cluster-points N, --min-height-m H: the segmentation's smallest cluster and lowest object point\n"
       "                    (default: config/perception.yaml's)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
@@ -337,6 +338,8 @@ int main(int argc, char** argv)
       params.concave_split.min_piece_points = std::stoi(value);
     else if (flag == "--join-occluded")
       params.join_occluded_pieces = value == "1" || value == "true";
+    else if (flag == "--join-containers")
+      params.join_container_insides = value == "1" || value == "true";
     else if (flag == "--min-cluster-points")
       params.min_cluster_points = std::stoi(value);
     else if (flag == "--min-height-m")

@@ -85,6 +85,10 @@ std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
   pnh.param("occlusion_sample_step_m", params_.occlusion_join.sample_step_m, params_.occlusion_join.sample_step_m);
   pnh.param("occlusion_hidden_margin_m", params_.occlusion_join.hidden_margin_m, params_.occlusion_join.hidden_margin_m);
   pnh.param("occlusion_angular_cell", params_.occlusion_join.angular_cell, params_.occlusion_join.angular_cell);
+  pnh.param("join_container_insides", params_.join_container_insides, params_.join_container_insides);
+  pnh.param("container_min_across_overlap", params_.container_join.min_across_overlap, params_.container_join.min_across_overlap);
+  pnh.param("container_max_top_difference_m", params_.container_join.max_top_difference_m, params_.container_join.max_top_difference_m);
+  pnh.param("container_max_depth_to_width", params_.container_join.max_depth_to_width, params_.container_join.max_depth_to_width);
   pnh.param("join_lying_necks", params_.join_lying_necks, params_.join_lying_necks);
   pnh.param("neck_min_elongation", params_.neck_join.min_elongation, params_.neck_join.min_elongation);
   pnh.param("neck_max_gap_m", params_.neck_join.max_gap_m, params_.neck_join.max_gap_m);

@@ -60,8 +60,8 @@ std::size_t mostLinked(const std::map<std::size_t, int>& border)
 
 /// A single object seen from outside is convex or flat; a piece that curves inward everywhere is
 /// the inside of a container (a mug's or a pot's far inner wall and bottom), cut from its outer
-/// wall along the rim. Joins each such piece (more than concave_piece_fraction of its bent point pairs
-/// concave) to the neighbour piece it shares most border links with.
+/// wall along the rim. Joins each such piece (curvesInward) to the neighbour piece it shares most
+/// border links with.
 void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                  const std::vector<Eigen::Vector3f>& normals, const std::vector<int>& piece_of,
                                  const ConcaveSplitParams& params, Pieces& objects)
@@ -70,31 +70,12 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::
   for (std::size_t i = 0; i < points.size(); ++i)
     members[static_cast<std::size_t>(piece_of[i])].push_back(i);
   auto pieceOf = [&piece_of](std::size_t i) { return static_cast<std::size_t>(piece_of[i]); };
-  // Bending is judged between points a few centimetres apart: neighbouring normals differ by
-  // less than the sensor noise along a mug's inside. Fixed seed: the same cloud, the same answer.
+  // Fixed seed: the same cloud, the same answer.
   std::mt19937 rng(1);
-  const float near_sq = static_cast<float>(params.bend_min_distance_m * params.bend_min_distance_m);
-  const float far_sq = static_cast<float>(params.bend_max_distance_m * params.bend_max_distance_m);
-  const float bent_cosine = static_cast<float>(std::cos(params.bent_pair_rad));
   for (std::size_t piece = 0; piece < objects.size(); ++piece)
   {
-    const auto& list = members[piece];
     const std::map<std::size_t, int> border = borderLinks(links, pieceOf, piece);
-    if (border.empty() || list.size() < 2)
-      continue;
-    std::uniform_int_distribution<std::size_t> pick(0, list.size() - 1);
-    int bent = 0, concave = 0;
-    for (int attempt = 0; attempt < params.bend_samples; ++attempt)
-    {
-      const std::size_t i = list[pick(rng)], j = list[pick(rng)];
-      const Eigen::Vector3f offset = points.points[i].getVector3fMap() - points.points[j].getVector3fMap();
-      const float distance_sq = offset.squaredNorm();
-      if (distance_sq < near_sq || distance_sq > far_sq || normals[i].dot(normals[j]) > bent_cosine)
-        continue;
-      ++bent;
-      concave += (normals[i] - normals[j]).dot(offset) < 0.0f ? 1 : 0;
-    }
-    if (bent > 0 && static_cast<double>(concave) > params.concave_piece_fraction * static_cast<double>(bent))
+    if (!border.empty() && curvesInward(points, normals, members[piece], params, rng))
       objects.join(piece, mostLinked(border));
   }
 }
@@ -283,6 +264,31 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
     out.push_back(std::move(piece));
 }
 }  // namespace
+
+bool curvesInward(const CloudXYZ& points, const std::vector<Eigen::Vector3f>& normals,
+                  const std::vector<std::size_t>& members, const ConcaveSplitParams& params, std::mt19937& rng)
+{
+  if (members.size() < 2)
+    return false;
+  // Bending is judged between points a few centimetres apart: neighbouring normals differ by
+  // less than the sensor noise along a mug's inside.
+  std::uniform_int_distribution<std::size_t> pick(0, members.size() - 1);
+  const float near_sq = static_cast<float>(params.bend_min_distance_m * params.bend_min_distance_m);
+  const float far_sq = static_cast<float>(params.bend_max_distance_m * params.bend_max_distance_m);
+  const float bent_cosine = static_cast<float>(std::cos(params.bent_pair_rad));
+  int bent = 0, concave = 0;
+  for (int attempt = 0; attempt < params.bend_samples; ++attempt)
+  {
+    const std::size_t i = members[pick(rng)], j = members[pick(rng)];
+    const Eigen::Vector3f offset = points.points[i].getVector3fMap() - points.points[j].getVector3fMap();
+    const float distance_sq = offset.squaredNorm();
+    if (distance_sq < near_sq || distance_sq > far_sq || normals[i].dot(normals[j]) > bent_cosine)
+      continue;
+    ++bent;
+    concave += (normals[i] - normals[j]).dot(offset) < 0.0f ? 1 : 0;
+  }
+  return bent > 0 && static_cast<double>(concave) > params.concave_piece_fraction * static_cast<double>(bent);
+}
 
 std::vector<pcl::PointIndices> splitAtConcaveCreases(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
                                                      const Eigen::Vector3f& viewpoint, const Eigen::Vector4f& plane,

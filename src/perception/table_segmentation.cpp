@@ -93,6 +93,10 @@ std::string validateParams(const TableSegmentationParams& params)
       !(params.concave_split.table_cell_m > 0.0))
     return "concave split: need k_neighbours >= 3, link_radius_m > 0, concave_tolerance_rad in (0, pi), "
            "min_piece_points >= 1, bend_samples >= 0, table_cell_m > 0";
+  const ContainerJoinParams& container = params.container_join;
+  if (!(container.min_across_overlap >= 0.0) || !(container.max_top_difference_m >= 0.0) ||
+      !(container.max_depth_to_width >= 0.0 && container.max_depth_to_width <= 100.0))
+    return "container join: need min_across_overlap >= 0, max_top_difference_m >= 0, max_depth_to_width in [0, 100]";
   const OcclusionJoinParams& join = params.occlusion_join;
   if (!(join.max_gap_m >= 0.0 && join.max_gap_m <= 10.0) || !(join.max_top_difference_m >= 0.0) ||
       !(join.sample_step_m >= 1e-4) || !(join.hidden_margin_m >= 0.0) || !(join.angular_cell >= 1e-4 && join.angular_cell <= 1.0))
@@ -339,6 +343,13 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
         joined_group[static_cast<std::size_t>(joined_into[c])] = gap_group[c];
     gap_group = joined_group;
   };
+  if (params.join_container_insides && result.clusters.size() >= 2)
+  {
+    std::vector<int> joined_into;
+    result.clusters = joinContainerInsides(*cloud, result.clusters, cloud->sensor_origin_.head<3>(), plane,
+                                           params.container_join, params.concave_split, &joined_into);
+    followJoins(joined_into);
+  }
   if (params.join_occluded_pieces && result.clusters.size() >= 3)
   {
     std::vector<int> joined_into;

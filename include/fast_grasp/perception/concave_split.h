@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <pcl/PointIndices.h>
 
+#include <random>
 #include <vector>
 
 namespace fast_grasp
@@ -57,5 +58,13 @@ struct ConcaveSplitParams
 std::vector<pcl::PointIndices> splitAtConcaveCreases(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
                                                      const Eigen::Vector3f& viewpoint, const Eigen::Vector4f& plane,
                                                      const CloudXYZ& table, const ConcaveSplitParams& params);
+
+/// Whether the surface of `members` (indices into `points` and its camera-facing `normals`) curves
+/// inward, as a container's inside does and no object seen from outside: more than
+/// concave_piece_fraction of its bent point pairs (bend_samples pairs drawn with `rng`,
+/// bend_min_distance_m to bend_max_distance_m apart, normals differing by more than bent_pair_rad)
+/// are concave. False when no drawn pair is bent.
+bool curvesInward(const CloudXYZ& points, const std::vector<Eigen::Vector3f>& normals,
+                  const std::vector<std::size_t>& members, const ConcaveSplitParams& params, std::mt19937& rng);
 
 }  // namespace fast_grasp

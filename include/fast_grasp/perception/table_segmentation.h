@@ -4,6 +4,7 @@
 
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/perception/concave_split.h"
+#include "fast_grasp/perception/container_join.h"
 #include "fast_grasp/perception/neck_join.h"
 #include "fast_grasp/perception/occlusion_join.h"
 
@@ -51,6 +52,11 @@ struct TableSegmentationParams
   /// also cuts single objects made of convex parts (a drill's chuck, a racket's head).
   bool split_concave_creases = false;
   ConcaveSplitParams concave_split;
+  /// Join a container's inside to its outer wall when a gap parts them (container_join.h), after
+  /// the split (with or without it); the inward-curving test is concave_split's. Needs the
+  /// input's sensor_origin_ (the camera).
+  bool join_container_insides = true;
+  ContainerJoinParams container_join;
   /// Join the two visible pieces of an object that a nearer object hides in its middle
   /// (occlusion_join.h), after the split. Needs the input's sensor_origin_ and
   /// sensor_orientation_ (the camera pose).
