@@ -2,17 +2,22 @@
 // known tilted table under a box, two objects 20 cm apart give two clusters, the reach
 // filter and the voxel grid behave as computed by hand, and bad input returns a reason.
 #include "fast_grasp/perception/cloud_preprocess.h"
+#include "fast_grasp/perception/grid_clusters.h"
 #include "fast_grasp/perception/normal_estimation.h"
 #include "fast_grasp/perception/table_segmentation.h"
 
 #include <gtest/gtest.h>
+#include <pcl/search/kdtree.h>
+#include <pcl/segmentation/extract_clusters.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <random>
+#include <set>
 #include <vector>
 
 using namespace fast_grasp;
@@ -409,6 +414,99 @@ TEST(CloudPreprocess, BadInputGivesReasonNotThrow)
   Eigen::Isometry3f broken = identity;
   broken.translation().x() = kNaN;
   EXPECT_FALSE(preprocessCloud(raw, broken, params).ok);
+}
+
+// ------------------------------------------------------------------------------------------
+// Euclidean clusters on a grid
+
+namespace
+{
+/// A partition as a set of sorted index lists (order of clusters ignored).
+std::set<std::vector<pcl::index_t>> asPartition(const std::vector<pcl::PointIndices>& clusters)
+{
+  std::set<std::vector<pcl::index_t>> out;
+  for (const auto& c : clusters)
+  {
+    std::vector<pcl::index_t> sorted(c.indices.begin(), c.indices.end());
+    std::sort(sorted.begin(), sorted.end());
+    out.insert(sorted);
+  }
+  return out;
+}
+}  // namespace
+
+TEST(GridClusters, ChainsCloserThanTheToleranceAreOneClusterAndAGapSplitsThem)
+{
+  // Five points 1.9 cm apart in a row (a chain within the 2 cm tolerance although its ends are
+  // 7.6 cm apart), then a 2.1 cm gap, then two more points 1 cm apart; NaN points are skipped.
+  CloudXYZ cloud;
+  for (const float x : { 0.0f, 0.019f, 0.038f, 0.057f, 0.076f, 0.097f, 0.107f })
+    cloud.push_back(PointXYZ(x, 0.3f, 0.1f));
+  cloud.push_back(PointXYZ(kNaN, 0.3f, 0.1f));
+  pcl::Indices all(cloud.size());
+  std::iota(all.begin(), all.end(), 0);
+  auto clusters = gridEuclideanClusters(cloud, all, 0.02, 1, 100);
+  ASSERT_TRUE(clusters.has_value());
+  ASSERT_EQ(clusters->size(), 2u);
+  EXPECT_EQ((*clusters)[0].indices, (pcl::Indices{ 0, 1, 2, 3, 4 })) << "largest first";
+  EXPECT_EQ((*clusters)[1].indices, (pcl::Indices{ 5, 6 }));
+  clusters = gridEuclideanClusters(cloud, all, 0.02, 3, 100);
+  ASSERT_TRUE(clusters.has_value());
+  EXPECT_EQ(clusters->size(), 1u) << "clusters below min_points are dropped";
+  clusters = gridEuclideanClusters(cloud, all, 0.02, 1, 4);
+  ASSERT_TRUE(clusters.has_value());
+  EXPECT_EQ(clusters->size(), 1u) << "clusters above max_points are dropped";
+  EXPECT_FALSE(gridEuclideanClusters(cloud, all, 0.02, 1, 100, 100).has_value()) << "grid too large (14 x 5 x 5 cells): nullopt";
+  EXPECT_TRUE(gridEuclideanClusters(cloud, pcl::Indices{}, 0.02, 1, 100)->empty());
+}
+
+TEST(GridClusters, SamePartitionAsPclEuclideanClusterExtraction)
+{
+  // Random scenes of blobs, sheets and scattered points, some within the tolerance of each
+  // other: the grid must find exactly the clusters PCL's k-d tree finds.
+  for (unsigned seed = 1; seed <= 20; ++seed)
+  {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> where(-0.3f, 0.3f), size(0.005f, 0.08f), unit(0.0f, 1.0f);
+    std::normal_distribution<float> spread(0.0f, 1.0f);
+    auto cloud = std::make_shared<CloudXYZ>();
+    for (int blob = 0; blob < 12; ++blob)
+    {
+      const Eigen::Vector3f centre(where(rng), where(rng), 0.5f * where(rng));
+      const Eigen::Vector3f extent(size(rng), size(rng), size(rng));
+      const int n = 5 + static_cast<int>(300.0f * unit(rng));
+      for (int i = 0; i < n; ++i)
+      {
+        const Eigen::Vector3f p = centre + extent.cwiseProduct(Eigen::Vector3f(spread(rng), spread(rng), spread(rng)));
+        cloud->push_back(PointXYZ(p.x(), p.y(), p.z()));
+      }
+    }
+    for (int i = 0; i < 200; ++i)
+      cloud->push_back(PointXYZ(where(rng), where(rng), where(rng)));
+    finish(*cloud);
+    auto candidates = std::make_shared<pcl::Indices>();
+    for (std::size_t i = 0; i < cloud->size(); i += 1 + (i % 7 == 0 ? 1 : 0))
+      candidates->push_back(static_cast<pcl::index_t>(i));
+    for (const double tolerance : { 0.01, 0.02, 0.035 })
+    {
+      auto tree = std::make_shared<pcl::search::KdTree<PointXYZ>>();
+      tree->setInputCloud(cloud, candidates);
+      pcl::EuclideanClusterExtraction<PointXYZ> clustering;
+      clustering.setClusterTolerance(tolerance);
+      clustering.setMinClusterSize(10);
+      clustering.setMaxClusterSize(100000);
+      clustering.setSearchMethod(tree);
+      clustering.setInputCloud(cloud);
+      clustering.setIndices(candidates);
+      std::vector<pcl::PointIndices> expected;
+      clustering.extract(expected);
+      const auto found = gridEuclideanClusters(*cloud, *candidates, tolerance, 10, 100000);
+      ASSERT_TRUE(found.has_value());
+      EXPECT_EQ(asPartition(*found), asPartition(expected)) << "seed " << seed << ", tolerance " << tolerance;
+      for (std::size_t c = 1; c < found->size(); ++c)
+        EXPECT_GE((*found)[c - 1].indices.size(), (*found)[c].indices.size()) << "largest first";
+    }
+  }
 }
 
 // ------------------------------------------------------------------------------------------

@@ -1,5 +1,6 @@
 #include "fast_grasp/perception/table_segmentation.h"
 
+#include "fast_grasp/perception/grid_clusters.h"
 #include "fast_grasp/perception/table_footprint.h"
 
 #include <pcl/ModelCoefficients.h>
@@ -308,17 +309,26 @@ TableSegmentationResult segmentTable(const CloudXYZ::ConstPtr& cloud, const Tabl
   const Stopwatch clustering_watch;
   if (candidates->size() >= static_cast<std::size_t>(params.min_cluster_points))
   {
-    // Unsorted radius results: clustering only needs the neighbour set, not its order.
-    auto tree = std::make_shared<pcl::search::KdTree<PointXYZ>>(/*sorted=*/false);
-    tree->setInputCloud(cloud, candidates);
-    pcl::EuclideanClusterExtraction<PointXYZ> clustering;
-    clustering.setClusterTolerance(params.cluster_tolerance_m);
-    clustering.setMinClusterSize(params.min_cluster_points);
-    clustering.setMaxClusterSize(params.max_cluster_points);
-    clustering.setSearchMethod(tree);
-    clustering.setInputCloud(cloud);
-    clustering.setIndices(candidates);
-    clustering.extract(result.clusters);
+    // The grid finds pcl::EuclideanClusterExtraction's clusters in a fraction of its time
+    // (grid_clusters.h); the k-d tree serves points too far-flung for the grid.
+    auto on_grid = gridEuclideanClusters(*cloud, *candidates, params.cluster_tolerance_m, params.min_cluster_points,
+                                         params.max_cluster_points);
+    if (on_grid)
+      result.clusters = std::move(*on_grid);
+    else
+    {
+      // Unsorted radius results: clustering only needs the neighbour set, not its order.
+      auto tree = std::make_shared<pcl::search::KdTree<PointXYZ>>(/*sorted=*/false);
+      tree->setInputCloud(cloud, candidates);
+      pcl::EuclideanClusterExtraction<PointXYZ> clustering;
+      clustering.setClusterTolerance(params.cluster_tolerance_m);
+      clustering.setMinClusterSize(params.min_cluster_points);
+      clustering.setMaxClusterSize(params.max_cluster_points);
+      clustering.setSearchMethod(tree);
+      clustering.setInputCloud(cloud);
+      clustering.setIndices(candidates);
+      clustering.extract(result.clusters);
+    }
   }
   // gap_group[c]: the Euclidean cluster that clusters[c] is a piece of.
   std::vector<int> gap_group(result.clusters.size());
