@@ -1,6 +1,7 @@
 #include "fast_grasp/perception/concave_split.h"
 
 #include "fast_grasp/perception/table_footprint.h"
+#include "fast_grasp/perception/union_find.h"
 
 #include <pcl/features/normal_3d.h>
 #include <pcl/search/kdtree.h>
@@ -16,24 +17,6 @@ namespace fast_grasp
 {
 namespace
 {
-/// Union-find over the points of one cluster.
-class Pieces
-{
-public:
-  explicit Pieces(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t find(std::size_t i)
-  {
-    while (parent_[i] != i)
-      i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void join(std::size_t a, std::size_t b) { parent_[find(a)] = find(b); }
-  std::size_t size() const { return parent_.size(); }
-
-private:
-  std::vector<std::size_t> parent_;
-};
-
 /// Links from the points of `group` to points of other groups, counted per other group;
 /// `groupOf(i)` names point i's group. `links[i]`: i's neighbours within link_radius_m.
 template <typename GroupOf>
@@ -64,7 +47,7 @@ std::size_t mostLinked(const std::map<std::size_t, int>& border)
 /// border links with.
 void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                  const std::vector<Eigen::Vector3f>& normals, const std::vector<int>& piece_of,
-                                 const ConcaveSplitParams& params, Pieces& objects)
+                                 const ConcaveSplitParams& params, UnionFind& objects)
 {
   std::vector<std::vector<std::size_t>> members(objects.size());
   for (std::size_t i = 0; i < points.size(); ++i)
@@ -89,7 +72,7 @@ void joinInsidesToTheirContainer(const CloudXYZ& points, const std::vector<std::
 /// hold it up (a toy lying on a box that lies on hidden objects in a pile).
 void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<std::vector<std::size_t>>& links,
                                const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableFootprint& table,
-                               const ConcaveSplitParams& params, Pieces& objects)
+                               const ConcaveSplitParams& params, UnionFind& objects)
 {
   const Eigen::Vector3f up = plane.head<3>().normalized();
   auto heightOf = [&](const Eigen::Vector3f& p) { return up.dot(p) + plane[3] / plane.head<3>().norm(); };
@@ -150,25 +133,9 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   points->reserve(n);
   for (const auto i : members)
     points->push_back(cloud.points[static_cast<std::size_t>(i)]);
-  pcl::search::KdTree<PointXYZ> tree(/*sorted=*/false);
-  tree.setInputCloud(points);
-
   // One k-NN search per point serves the normal fit and the links.
-  std::vector<pcl::Indices> neighbours(n);
-  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
-  std::vector<float> squared_distances;
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    tree.nearestKSearch(static_cast<pcl::index_t>(i), k, neighbours[i], squared_distances);
-    Eigen::Vector4f fitted_plane;
-    float curvature = 0.0f;
-    if (!pcl::computePointNormal(*points, neighbours[i], fitted_plane, curvature))
-      continue;
-    Eigen::Vector3f normal = fitted_plane.head<3>();
-    if (normal.dot(viewpoint - points->points[i].getVector3fMap()) < 0.0f)
-      normal = -normal;
-    normals[i] = normal;
-  }
+  std::vector<pcl::Indices> neighbours;
+  const std::vector<Eigen::Vector3f> normals = cameraFacingNormals(points, k, viewpoint, &neighbours);
 
   // A link is a crease when it is concave and its normals differ by more than the noise on a
   // flat face. Both ends of a crease link are crease points: they join nothing at first, so a
@@ -193,7 +160,7 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
       if (concave && normals[i].dot(normals[j]) < flat_cosine)
         on_crease[i] = on_crease[j] = true;
     }
-  Pieces pieces(n);
+  UnionFind pieces(n);
   for (std::size_t i = 0; i < n; ++i)
     if (!on_crease[i])
       for (const std::size_t j : links[i])
@@ -254,7 +221,7 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   // cluster rather than vanish.
   for (int& piece : piece_of)
     piece = piece == kUnassigned ? largest : piece;
-  Pieces objects(piece_number.size());
+  UnionFind objects(piece_number.size());
   joinInsidesToTheirContainer(*points, links, normals, piece_of, params, objects);
   joinPiecesThatCannotStand(*points, links, piece_of, plane, table, params, objects);
   std::map<std::size_t, pcl::PointIndices> by_object;
@@ -264,6 +231,34 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
     out.push_back(std::move(piece));
 }
 }  // namespace
+
+std::vector<Eigen::Vector3f> cameraFacingNormals(const std::shared_ptr<const CloudXYZ>& points, int k,
+                                                 const Eigen::Vector3f& viewpoint, std::vector<pcl::Indices>* neighbours)
+{
+  const std::size_t n = points->size();
+  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
+  std::vector<pcl::Indices> found(n);
+  k = std::min<int>(k, static_cast<int>(n));
+  if (k >= 1)
+  {
+    pcl::search::KdTree<PointXYZ> tree(/*sorted=*/false);
+    tree.setInputCloud(points);
+    std::vector<float> squared_distances;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      tree.nearestKSearch(static_cast<pcl::index_t>(i), k, found[i], squared_distances);
+      Eigen::Vector4f fitted_plane;
+      float curvature = 0.0f;
+      if (!pcl::computePointNormal(*points, found[i], fitted_plane, curvature))
+        continue;
+      const Eigen::Vector3f normal = fitted_plane.head<3>();
+      normals[i] = normal.dot(viewpoint - points->points[i].getVector3fMap()) < 0.0f ? Eigen::Vector3f(-normal) : normal;
+    }
+  }
+  if (neighbours)
+    *neighbours = std::move(found);
+  return normals;
+}
 
 bool curvesInward(const CloudXYZ& points, const std::vector<Eigen::Vector3f>& normals,
                   const std::vector<std::size_t>& members, const ConcaveSplitParams& params, std::mt19937& rng)

@@ -2,9 +2,6 @@
 
 #include "fast_grasp/perception/cluster_groups.h"
 
-#include <pcl/features/normal_3d.h>
-#include <pcl/search/kdtree.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -49,21 +46,7 @@ bool clusterCurvesInward(const CloudXYZ& cloud, const pcl::Indices& indices, con
   points->reserve(n);
   for (const auto i : indices)
     points->push_back(cloud.points[static_cast<std::size_t>(i)]);
-  pcl::search::KdTree<PointXYZ> tree(/*sorted=*/false);
-  tree.setInputCloud(points);
-  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
-  pcl::Indices neighbours;
-  std::vector<float> squared_distances;
-  for (std::size_t i = 0; i < n; ++i)
-  {
-    tree.nearestKSearch(static_cast<pcl::index_t>(i), k, neighbours, squared_distances);
-    Eigen::Vector4f fitted_plane;
-    float curvature = 0.0f;
-    if (!pcl::computePointNormal(*points, neighbours, fitted_plane, curvature))
-      continue;
-    const Eigen::Vector3f normal = fitted_plane.head<3>();
-    normals[i] = normal.dot(viewpoint - points->points[i].getVector3fMap()) < 0.0f ? Eigen::Vector3f(-normal) : normal;
-  }
+  const std::vector<Eigen::Vector3f> normals = cameraFacingNormals(points, k, viewpoint);
   std::vector<std::size_t> members(n);
   std::iota(members.begin(), members.end(), std::size_t{0});
   // Fixed seed: the same cloud, the same answer.

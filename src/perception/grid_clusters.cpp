@@ -1,5 +1,7 @@
 #include "fast_grasp/perception/grid_clusters.h"
 
+#include "fast_grasp/perception/union_find.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -9,26 +11,6 @@
 
 namespace fast_grasp
 {
-namespace
-{
-/// Union-find over the occupied cells.
-class CellSets
-{
-public:
-  explicit CellSets(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  std::size_t find(std::size_t i)
-  {
-    while (parent_[i] != i)
-      i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void join(std::size_t a, std::size_t b) { parent_[find(a)] = find(b); }
-
-private:
-  std::vector<std::size_t> parent_;
-};
-}  // namespace
-
 std::optional<std::vector<pcl::PointIndices>> gridEuclideanClusters(const CloudXYZ& cloud, const pcl::Indices& indices,
                                                                     double tolerance_m, int min_points, int max_points,
                                                                     std::size_t max_cells)
@@ -112,7 +94,7 @@ std::optional<std::vector<pcl::PointIndices>> gridEuclideanClusters(const CloudX
         (std::max({ std::abs(dx), std::abs(dy), std::abs(dz) }) <= 1 ? near_offsets : far_offsets).push_back(offset);
       }
   const float tolerance_sq = static_cast<float>(tolerance_m * tolerance_m);
-  CellSets sets(cells);
+  UnionFind sets(cells);  // over the occupied cells
   auto linked = [&](std::size_t a, std::size_t b) {
     for (std::size_t i = start[a]; i < start[a + 1]; ++i)
       for (std::size_t j = start[b]; j < start[b + 1]; ++j)

@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 #include <pcl/PointIndices.h>
 
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -58,6 +59,13 @@ struct ConcaveSplitParams
 std::vector<pcl::PointIndices> splitAtConcaveCreases(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
                                                      const Eigen::Vector3f& viewpoint, const Eigen::Vector4f& plane,
                                                      const CloudXYZ& table, const ConcaveSplitParams& params);
+
+/// Each point's normal from the plane through its k nearest neighbours in `points` (PCA), turned
+/// toward `viewpoint` (zero where no plane fits); `neighbours`, when given, receives each point's
+/// k nearest neighbours (indices into `points`, itself included).
+std::vector<Eigen::Vector3f> cameraFacingNormals(const std::shared_ptr<const CloudXYZ>& points, int k,
+                                                 const Eigen::Vector3f& viewpoint,
+                                                 std::vector<pcl::Indices>* neighbours = nullptr);
 
 /// Whether the surface of `members` (indices into `points` and its camera-facing `normals`) curves
 /// inward, as a container's inside does and no object seen from outside: more than
