@@ -458,6 +458,11 @@ TEST(GridClusters, ChainsCloserThanTheToleranceAreOneClusterAndAGapSplitsThem)
   EXPECT_EQ(clusters->size(), 1u) << "clusters above max_points are dropped";
   EXPECT_FALSE(gridEuclideanClusters(cloud, all, 0.02, 1, 100, 100).has_value()) << "grid too large (14 x 5 x 5 cells): nullopt";
   EXPECT_TRUE(gridEuclideanClusters(cloud, pcl::Indices{}, 0.02, 1, 100)->empty());
+  // Finite but far-flung points: no grid (the caller's k-d tree takes them), no overflow.
+  cloud.push_back(PointXYZ(1e30f, -1e30f, 3e38f));
+  pcl::Indices with_far(cloud.size());
+  std::iota(with_far.begin(), with_far.end(), 0);
+  EXPECT_FALSE(gridEuclideanClusters(cloud, with_far, 0.02, 1, 100).has_value());
 }
 
 TEST(GridClusters, SamePartitionAsPclEuclideanClusterExtraction)

@@ -40,7 +40,11 @@ std::optional<std::vector<pcl::PointIndices>> gridEuclideanClusters(const CloudX
   double total = 1.0;
   for (int a = 0; a < 3; ++a)
   {
-    dims[static_cast<std::size_t>(a)] = static_cast<long>(std::floor((high[a] - low[a]) / cell)) + 1 + 2 * kPad;
+    // Checked before the cast: finite but far-flung points (1e30 m) would overflow a long.
+    const double cells_along = std::floor((static_cast<double>(high[a]) - static_cast<double>(low[a])) / cell);
+    if (!(cells_along < static_cast<double>(max_cells)))
+      return std::nullopt;
+    dims[static_cast<std::size_t>(a)] = static_cast<long>(cells_along) + 1 + 2 * kPad;
     total *= static_cast<double>(dims[static_cast<std::size_t>(a)]);
   }
   if (total > static_cast<double>(max_cells))
