@@ -2,6 +2,7 @@
 // known tilted table under a box, two objects 20 cm apart give two clusters, the reach
 // filter and the voxel grid behave as computed by hand, and bad input returns a reason.
 #include "fast_grasp/perception/cloud_preprocess.h"
+#include "fast_grasp/perception/cluster_groups.h"
 #include "fast_grasp/perception/grid_clusters.h"
 #include "fast_grasp/perception/normal_estimation.h"
 #include "fast_grasp/perception/table_segmentation.h"
@@ -434,6 +435,42 @@ std::set<std::vector<pcl::index_t>> asPartition(const std::vector<pcl::PointIndi
   return out;
 }
 }  // namespace
+
+TEST(ClusterFootprints, HeightsAboveATiltedTableAndHorizontalCoordinatesKeepDistances)
+{
+  // The plane 2 (0, sin t, cos t) . p + 2 * (-0.1) = 0 (not unit): a table 10 cm along its
+  // normal from the origin, tilted t = 0.3 rad. A point 5 cm above it along the normal has height
+  // 0.05; two points on one vertical line of the table share their horizontal coordinates, and
+  // two points 4 cm apart within the table are 4 cm apart in them.
+  const float t = 0.3f;
+  const Eigen::Vector3f up(0.0f, std::sin(t), std::cos(t));
+  const auto table = tableAxes(Eigen::Vector4f(2.0f * up.x(), 2.0f * up.y(), 2.0f * up.z(), -0.2f));
+  ASSERT_TRUE(table.has_value());
+  const Eigen::Vector3f on_table = 0.1f * up + Eigen::Vector3f(0.02f, 0.0f, 0.0f);
+  EXPECT_NEAR(table->height(on_table), 0.0f, 1e-6f);
+  EXPECT_NEAR(table->height(on_table + 0.05f * up), 0.05f, 1e-6f);
+  EXPECT_NEAR((table->horizontal(on_table + 0.05f * up) - table->horizontal(on_table)).norm(), 0.0f, 1e-6f);
+  const Eigen::Vector3f along_table = up.unitOrthogonal().cross(up).normalized();
+  EXPECT_NEAR((table->horizontal(on_table + 0.04f * along_table) - table->horizontal(on_table)).norm(), 0.04f, 1e-6f);
+  EXPECT_FALSE(tableAxes(Eigen::Vector4f(0.0f, 0.0f, 0.0f, 1.0f)).has_value());
+  EXPECT_FALSE(tableAxes(Eigen::Vector4f(std::nanf(""), 0.0f, 1.0f, 0.0f)).has_value());
+
+  CloudXYZ cloud;
+  for (const Eigen::Vector3f& p : { Eigen::Vector3f(on_table + 0.01f * up),
+                                    Eigen::Vector3f(on_table + 0.03f * up + 0.02f * along_table),
+                                    Eigen::Vector3f(on_table + 0.08f * up) })
+    cloud.push_back(PointXYZ(p.x(), p.y(), p.z()));
+  std::vector<pcl::PointIndices> clusters(2);
+  clusters[0].indices = { 0, 1 };
+  const auto footprints = clusterFootprints(cloud, clusters, *table);
+  ASSERT_EQ(footprints.size(), 2u);
+  EXPECT_NEAR(footprints[0].low, 0.01f, 1e-6f);
+  EXPECT_NEAR(footprints[0].top, 0.03f, 1e-6f);
+  ASSERT_EQ(footprints[0].points.size(), 2u);
+  EXPECT_NEAR((footprints[0].mean - table->horizontal(on_table + 0.01f * along_table)).norm(), 0.0f, 1e-6f);
+  EXPECT_TRUE(footprints[1].points.empty());
+  EXPECT_TRUE(std::isinf(footprints[1].low) && footprints[1].low > 0.0f);
+}
 
 TEST(GridClusters, ChainsCloserThanTheToleranceAreOneClusterAndAGapSplitsThem)
 {

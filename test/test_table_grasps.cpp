@@ -185,6 +185,19 @@ TEST(TableGrasps, TheObjectChoiceOrdersBestGraspTopmostAndNearest)
   EXPECT_NEAR(topmost.objects[0].top_height_m, 0.06, 0.003);
   params.object_choice = ObjectChoice::NearestToBase;
   EXPECT_EQ(planTableGrasps(views, planner, gripper, params).order, (std::vector<std::size_t>{ 0, 1 }));
+
+  // The far box's 0.8 grasp is one the hold check expects to drop (the fused planner keeps such
+  // grasps last, hold_check.h): by best grasp the near box's trusted 0.4 comes first; the
+  // other rules do not look at grasps.
+  const StubPlanner risky_far([&](const ObjectView& view) {
+    auto grasps = planner.plan(view, gripper).grasps;
+    grasps.front().drop_risk = centroidOf(view).x() > 0.45;
+    return grasps;
+  });
+  params.object_choice = ObjectChoice::BestGrasp;
+  EXPECT_EQ(planTableGrasps(views, risky_far, gripper, params).order, (std::vector<std::size_t>{ 0, 1 }));
+  params.object_choice = ObjectChoice::Topmost;
+  EXPECT_EQ(planTableGrasps(views, risky_far, gripper, params).order, (std::vector<std::size_t>{ 1, 0 }));
 }
 
 TEST(TableGrasps, ThePlannerIsGivenTheNeighboursWithinAHandsReach)

@@ -54,10 +54,6 @@ struct Generated
   /// end-on grasp's far finger passes the hidden side, where the unseen part's shadows (10 cm
   /// along the camera rays) always reach; its width already assumes that hidden side.
   bool without_unseen = false;
-  /// A side grasp below a tall object's centre of mass (closesBelowCentreOfMass, hold_check.h), or one whose
-  /// fingertips fall short of a lying round object's axis: ranked after every candidate that
-  /// is neither.
-  bool demoted = false;
 };
 
 /// An end-on grasp (Generated::without_unseen) is checked without the unseen part, for its far
@@ -478,7 +474,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   for (auto& g : pool)
   {
     const DropRisk risk = dropRisk(g.grasp, gripper, extent, lying, RestingBall{}, rules);
-    g.demoted = risk != DropRisk::None;
+    g.grasp.drop_risk = risk != DropRisk::None;
     demoted.add(risk);
   }
   if (demoted.below_centre_of_mass > 0)
@@ -488,7 +484,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
             << " mm), fingertips short of its axis, ranked last: " << demoted.short_of_axis
             << "; open hand onto its hidden side, ranked last: " << demoted.onto_hidden_side << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
-    return a.demoted != b.demoted ? b.demoted : a.grasp.score > b.grasp.score;
+    return a.grasp.drop_risk != b.grasp.drop_risk ? b.grasp.drop_risk : a.grasp.score > b.grasp.score;
   });
   double best = 0.0;
   for (const auto& g : pool)

@@ -192,7 +192,13 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
       case ObjectChoice::BestGrasp:
         break;
     }
-    return objects[a].result.grasps.front().score > objects[b].result.grasps.front().score;
+    // A grasp the hold check expects to drop comes after every grasp it trusts, whatever the
+    // model's score: on a pile a failed attempt disturbs the rest and two in a row end the table.
+    const GraspCandidate& best_a = objects[a].result.grasps.front();
+    const GraspCandidate& best_b = objects[b].result.grasps.front();
+    if (best_a.drop_risk != best_b.drop_risk)
+      return best_b.drop_risk;
+    return best_a.score > best_b.score;
   });
   table.compute_time_s = watch.elapsedSeconds();
   return table;

@@ -48,4 +48,40 @@ std::vector<pcl::PointIndices> mergeClusterGroups(const std::vector<pcl::PointIn
   return sorted;
 }
 
+std::optional<TableAxes> tableAxes(const Eigen::Vector4f& plane)
+{
+  const float normal_length = plane.head<3>().norm();
+  if (!(normal_length > 0.0f))
+    return std::nullopt;
+  TableAxes table;
+  table.up = plane.head<3>() / normal_length;
+  table.offset = plane[3] / normal_length;
+  table.e1 = table.up.unitOrthogonal();
+  table.e2 = table.up.cross(table.e1);
+  return table;
+}
+
+std::vector<ClusterFootprint> clusterFootprints(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
+                                                const TableAxes& table)
+{
+  std::vector<ClusterFootprint> footprints(clusters.size());
+  for (std::size_t c = 0; c < clusters.size(); ++c)
+  {
+    ClusterFootprint& footprint = footprints[c];
+    footprint.points.reserve(clusters[c].indices.size());
+    for (const auto i : clusters[c].indices)
+    {
+      const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(i)].getVector3fMap();
+      const float height = table.height(p);
+      footprint.low = std::min(footprint.low, height);
+      footprint.top = std::max(footprint.top, height);
+      footprint.points.push_back(table.horizontal(p));
+      footprint.mean += footprint.points.back();
+    }
+    if (!footprint.points.empty())
+      footprint.mean /= static_cast<float>(footprint.points.size());
+  }
+  return footprints;
+}
+
 }  // namespace fast_grasp

@@ -12,17 +12,8 @@ namespace fast_grasp
 {
 namespace
 {
-/// What the rule needs of one cluster in the table's frame: each point's horizontal coordinates
-/// and the highest point's height.
-struct Footprint
-{
-  std::vector<Eigen::Vector2f> points;
-  Eigen::Vector2f mean = Eigen::Vector2f::Zero();
-  float top = -std::numeric_limits<float>::infinity();
-};
-
 /// The cluster's extent along `axis` (unit, horizontal): lowest and highest coordinate.
-std::pair<float, float> extentAlong(const Footprint& footprint, const Eigen::Vector2f& axis)
+std::pair<float, float> extentAlong(const ClusterFootprint& footprint, const Eigen::Vector2f& axis)
 {
   float low = std::numeric_limits<float>::infinity(), high = -low;
   for (const auto& q : footprint.points)
@@ -63,27 +54,11 @@ std::vector<pcl::PointIndices> joinContainerInsides(const CloudXYZ& cloud, const
   const std::size_t n = clusters.size();
   std::vector<int> group_of(n);
   std::iota(group_of.begin(), group_of.end(), 0);
-  const float normal_length = plane.head<3>().norm();
-  if (n >= 2 && normal_length > 0.0f)
+  const std::optional<TableAxes> table = tableAxes(plane);
+  if (n >= 2 && table)
   {
-    const Eigen::Vector3f up = plane.head<3>() / normal_length;
-    const float offset = plane[3] / normal_length;
-    const Eigen::Vector3f e1 = up.unitOrthogonal(), e2 = up.cross(e1);
-    const Eigen::Vector2f eye(e1.dot(viewpoint), e2.dot(viewpoint));
-    std::vector<Footprint> footprints(n);
-    for (std::size_t c = 0; c < n; ++c)
-    {
-      Footprint& footprint = footprints[c];
-      for (const auto i : clusters[c].indices)
-      {
-        const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(i)].getVector3fMap();
-        footprint.top = std::max(footprint.top, up.dot(p) + offset);
-        footprint.points.emplace_back(e1.dot(p), e2.dot(p));
-        footprint.mean += footprint.points.back();
-      }
-      if (!footprint.points.empty())
-        footprint.mean /= static_cast<float>(footprint.points.size());
-    }
+    const Eigen::Vector2f eye = table->horizontal(viewpoint);
+    const std::vector<ClusterFootprint> footprints = clusterFootprints(cloud, clusters, *table);
     // Whether a cluster curves inward, fitted only for the clusters the geometry singles out.
     std::vector<int> inward(n, -1);
     auto curvesInwardAt = [&](std::size_t c) {
@@ -94,14 +69,14 @@ std::vector<pcl::PointIndices> joinContainerInsides(const CloudXYZ& cloud, const
     const float max_depth_to_width = static_cast<float>(params.max_depth_to_width);
     for (std::size_t inside = 0; inside < n; ++inside)
     {
-      const Footprint& in = footprints[inside];
+      const ClusterFootprint& in = footprints[inside];
       if (in.points.empty())
         continue;
       int wall = -1;
       float wall_gap = std::numeric_limits<float>::infinity();
       for (std::size_t c = 0; c < n; ++c)
       {
-        const Footprint& out = footprints[c];
+        const ClusterFootprint& out = footprints[c];
         const Eigen::Vector2f sight = out.mean - eye;
         if (c == inside || out.points.empty() || !(sight.norm() > 0.0f) ||
             !(std::abs(in.top - out.top) <= static_cast<float>(params.max_top_difference_m)))

@@ -10,56 +10,26 @@
 
 namespace fast_grasp
 {
-namespace
-{
-/// What the rule needs of one cluster, in the table's frame (two horizontal axes, height).
-struct Shape
-{
-  float low = std::numeric_limits<float>::infinity();
-  float top = -std::numeric_limits<float>::infinity();
-  std::vector<Eigen::Vector2f> footprint;  // each point's horizontal coordinates
-  Eigen::Vector2f mean = Eigen::Vector2f::Zero();
-};
-}  // namespace
-
 std::vector<pcl::PointIndices> joinNecksToLyingBodies(const CloudXYZ& cloud, const std::vector<pcl::PointIndices>& clusters,
                                                       const Eigen::Vector4f& plane, const NeckJoinParams& params,
                                                       std::vector<int>* joined_into)
 {
   const std::size_t n = clusters.size();
-  const float normal_length = plane.head<3>().norm();
   std::vector<int> body_of(n, -1);
-  if (params.min_elongation > 0.0 && n >= 2 && normal_length > 0.0f)
+  const std::optional<TableAxes> table = tableAxes(plane);
+  if (params.min_elongation > 0.0 && n >= 2 && table)
   {
-    const Eigen::Vector3f up = plane.head<3>() / normal_length;
-    const float offset = plane[3] / normal_length;
-    const Eigen::Vector3f e1 = up.unitOrthogonal(), e2 = up.cross(e1);
-    std::vector<Shape> shapes(n);
-    for (std::size_t c = 0; c < n; ++c)
-    {
-      Shape& shape = shapes[c];
-      for (const auto i : clusters[c].indices)
-      {
-        const Eigen::Vector3f p = cloud.points[static_cast<std::size_t>(i)].getVector3fMap();
-        const float height = up.dot(p) + offset;
-        shape.low = std::min(shape.low, height);
-        shape.top = std::max(shape.top, height);
-        shape.footprint.emplace_back(e1.dot(p), e2.dot(p));
-        shape.mean += shape.footprint.back();
-      }
-      if (!shape.footprint.empty())
-        shape.mean /= static_cast<float>(shape.footprint.size());
-    }
+    const std::vector<ClusterFootprint> shapes = clusterFootprints(cloud, clusters, *table);
     const float standing = static_cast<float>(params.standing_height_m);
     for (std::size_t body = 0; body < n; ++body)
     {
-      const Shape& b = shapes[body];
-      if (b.footprint.size() < 3 || !(b.low <= standing))
+      const ClusterFootprint& b = shapes[body];
+      if (b.points.size() < 3 || !(b.low <= standing))
         continue;
       Eigen::Matrix2f covariance = Eigen::Matrix2f::Zero();
-      for (const auto& q : b.footprint)
+      for (const auto& q : b.points)
         covariance += (q - b.mean) * (q - b.mean).transpose();
-      covariance /= static_cast<float>(b.footprint.size());
+      covariance /= static_cast<float>(b.points.size());
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2f> spread(covariance);
       const float across_sd = std::sqrt(std::max(spread.eigenvalues()[0], 0.0f));
       const float along_sd = std::sqrt(std::max(spread.eigenvalues()[1], 0.0f));
@@ -71,8 +41,8 @@ std::vector<pcl::PointIndices> joinNecksToLyingBodies(const CloudXYZ& cloud, con
       const float half_width = std::sqrt(3.0f) * across_sd;
       for (std::size_t neck = 0; neck < n; ++neck)
       {
-        const Shape& k = shapes[neck];
-        if (neck == body || body_of[neck] >= 0 || k.footprint.empty() || k.footprint.size() >= b.footprint.size() ||
+        const ClusterFootprint& k = shapes[neck];
+        if (neck == body || body_of[neck] >= 0 || k.points.empty() || k.points.size() >= b.points.size() ||
             !(k.low > standing) || !(k.top < b.top && k.top > 0.5f * b.top))
           continue;
         const Eigen::Vector2f from_body = k.mean - b.mean;
@@ -80,10 +50,10 @@ std::vector<pcl::PointIndices> joinNecksToLyingBodies(const CloudXYZ& cloud, con
         if (std::abs(from_body.dot(across_axis)) > half_width)
           continue;
         float body_end = -std::numeric_limits<float>::infinity();
-        for (const auto& q : b.footprint)
+        for (const auto& q : b.points)
           body_end = std::max(body_end, side * (q - b.mean).dot(axis));
         float neck_start = std::numeric_limits<float>::infinity();
-        for (const auto& q : k.footprint)
+        for (const auto& q : k.points)
           neck_start = std::min(neck_start, side * (q - b.mean).dot(axis));
         const float neck_middle = side * from_body.dot(axis);
         if (neck_middle > body_end && neck_start - body_end <= static_cast<float>(params.max_gap_m))

@@ -60,6 +60,10 @@ struct GraspCandidate
   Eigen::Vector3d contact_b = Eigen::Vector3d::Constant(kUnset);
   /// The fused planner's success-model features (grasping/grasp_features.h order); else empty.
   std::vector<double> features;
+  /// The hold check expects this grasp to drop (grasping/hold_check.h: below a tall object's
+  /// centre of mass, short of a lying round object's axis, ...). The fused planner keeps such a
+  /// grasp after every other one instead of dropping it; its score stays the model's.
+  bool drop_risk = false;
 
   Eigen::Vector3d position() const { return pose.translation(); }
   Eigen::Vector3d approach() const { return pose.linear().col(0); }

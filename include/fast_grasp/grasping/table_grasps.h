@@ -19,7 +19,8 @@ namespace fast_grasp
 /// Which object is picked first.
 enum class ObjectChoice
 {
-  BestGrasp,     // the object whose best grasp scores highest (scores of one planner compare)
+  BestGrasp,     // the object whose best grasp scores highest (scores of one planner compare); one whose
+                 // best grasp has drop_risk after every object whose best grasp does not
   Topmost,       // the highest object first (a pile: taking the top one disturbs the rest least)
   NearestToBase  // the one nearest the robot base (the base frame's origin): the most reachable
 };
