@@ -312,7 +312,7 @@ std::string FusedParams::validate() const
       !(wide_lying_body.mirror.max_free_fraction >= 0.0 && wide_lying_body.mirror.max_free_fraction <= 1.0) ||
       !(wide_lying_body.min_excess_over_opening_m >= -0.1 && wide_lying_body.min_excess_over_opening_m <= 0.1))
     why << "wide_lying_body: min_elongation must be >= 1, max_free_fraction in [0, 1], min_excess_over_opening_m in [-0.1, 0.1] m; ";
-  why << gripper_fit.validate() << lying_cylinder.validate() << model.validate();
+  why << gripper_fit.validate() << lying_cylinder.validate() << one_seen_face.validate() << model.validate();
   return why.str();
 }
 
@@ -470,10 +470,11 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   rules.approach_opening_m = params_.gripper_fit.approach_opening_m;
   rules.tall_object_min_height_m = params_.tall_object_min_height_m;
   rules.tall_side_min_height_frac = params_.tall_side_min_height_frac;
+  rules.one_seen_face = params_.one_seen_face;
   DropCounts demoted;
   for (auto& g : pool)
   {
-    const DropRisk risk = dropRisk(g.grasp, gripper, extent, lying, RestingBall{}, rules);
+    const DropRisk risk = dropRisk(g.grasp, gripper, view, extent, lying, RestingBall{}, rules);
     g.grasp.drop_risk = risk != DropRisk::None;
     demoted.add(risk);
   }
@@ -483,6 +484,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
             << " mm), fingertips short of its axis, ranked last: " << demoted.short_of_axis
             << "; open hand onto its hidden side, ranked last: " << demoted.onto_hidden_side << "; ";
+  if (demoted.across_one_seen_face > 0)
+    summary << "narrow across one seen face (its depth unseen), ranked last: " << demoted.across_one_seen_face << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.grasp.drop_risk != b.grasp.drop_risk ? b.grasp.drop_risk : a.grasp.score > b.grasp.score;
   });

@@ -360,6 +360,14 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     lying.rejectUnknownKeys();
   }
   {
+    SectionReader face(reader.child("one_seen_face"), "fused/one_seen_face");
+    face.read("enabled", p.one_seen_face.enabled);
+    face.readNonNegative("max_width_m", p.one_seen_face.max_width_m);
+    face.readNonNegative("min_facing_cos", p.one_seen_face.min_facing_cos);
+    face.readNonNegative("min_facing_share", p.one_seen_face.min_facing_share);
+    face.rejectUnknownKeys();
+  }
+  {
     SectionReader wide(reader.child("wide_lying_body"), "fused/wide_lying_body");
     wide.read("enabled", p.wide_lying_body.enabled);
     wide.readNonNegative("min_elongation", p.wide_lying_body.mirror.min_elongation);
@@ -546,6 +554,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
       return planner;
     HoldCheckParams hold;
     hold.lying_cylinder = config.fused.lying_cylinder;
+    hold.one_seen_face = config.fused.one_seen_face;
     hold.approach_opening_m = config.fused.gripper_fit.approach_opening_m;
     if (config.hold_check.tall_objects)
     {

@@ -21,8 +21,9 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
   return height < static_cast<float>(side_min_height_frac) * extent.height_m;
 }
 
-DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
-                  const LyingCylinder& lying, const RestingBall& ball, const HoldCheckParams& params)
+DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+                  const ObjectExtent& extent, const LyingCylinder& lying, const RestingBall& ball,
+                  const HoldCheckParams& params)
 {
   if (closesBelowCentreOfMass(grasp, extent, params.tall_object_min_height_m, params.tall_side_min_height_frac))
     return DropRisk::BelowCentreOfMass;
@@ -39,6 +40,8 @@ DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, cons
   }
   if (fingertipsStopHighOnBall(grasp, gripper, ball, params.resting_ball))
     return DropRisk::HighOnBall;
+  if (closesAcrossOneSeenFace(grasp, gripper, view, params.one_seen_face))
+    return DropRisk::AcrossOneSeenFace;
   return DropRisk::None;
 }
 
@@ -61,6 +64,9 @@ void DropCounts::add(DropRisk risk)
     case DropRisk::ShortOfStandingAxis:
       ++short_of_standing_axis;
       break;
+    case DropRisk::AcrossOneSeenFace:
+      ++across_one_seen_face;
+      break;
     case DropRisk::None:
       break;
   }
@@ -75,7 +81,8 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
 {
   GraspResult result = planner_->plan(view, gripper);
   if (!result.ok() || (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled &&
-                       !params_.standing_cylinder.enabled && !(params_.tall_object_min_height_m > 0.0)))
+                       !params_.standing_cylinder.enabled && !params_.one_seen_face.enabled &&
+                       !(params_.tall_object_min_height_m > 0.0)))
     return result;
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);
@@ -87,7 +94,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   float widest_standing_section_m = 0.0f;
   for (auto& grasp : result.grasps)
   {
-    DropRisk risk = dropRisk(grasp, gripper, extent, lying, ball, params_);
+    DropRisk risk = dropRisk(grasp, gripper, view, extent, lying, ball, params_);
     // A lying round object or a ball is judged by its own fit above.
     if (risk == DropRisk::None && !lying.found && !ball.found)
       if (const auto section = standingSectionMissed(grasp, gripper, view, extent, params_.standing_cylinder))
@@ -126,6 +133,10 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         << dropped.short_of_standing_axis
         << " side grasps whose fingertips stop short of its axis (the pads close on a chord near their tips and "
            "squeeze it out in physics)";
+  if (dropped.across_one_seen_face > 0)
+    why << (why.tellp() > 0 ? "; " : "") << "dropped " << dropped.across_one_seen_face
+        << " narrow grasps across one seen face whose depth the camera never saw (the far finger lands inside "
+           "the hidden body)";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {

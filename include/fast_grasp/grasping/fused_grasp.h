@@ -14,6 +14,7 @@
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
+#include "fast_grasp/grasping/one_seen_face.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
@@ -52,6 +53,9 @@ struct FusedParams
   /// its hidden far side (openHandDepthInCylinder), rank after every other candidate (kept as
   /// a last resort, like the pendulum side grasps above).
   LyingCylinderParams lying_cylinder;
+  /// A narrow grasp across one face seen from in front, its depth unseen (one_seen_face.h),
+  /// ranks after every other candidate (shared with the thesis planners' hold check).
+  OneSeenFaceParams one_seen_face;
   /// End-on candidates: approach horizontally along the footprint's major axis from each end,
   /// the palm palm_clearance_m before the end, closing across what the fingers surround at the
   /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer

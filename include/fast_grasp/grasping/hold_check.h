@@ -4,7 +4,8 @@
 // ball or round body resting on the table (resting_ball.h) a grasp whose fingertips stop high
 // on it; on a tall round object standing on the table (standing_cylinder.h) a side grasp whose
 // fingertips stop well short of its axis; on a tall standing object (optionally) a side grasp
-// closing below its centre of mass.
+// closing below its centre of mass; a narrow grasp across one seen face whose depth the camera
+// never saw (one_seen_face.h).
 // Those are dropped, and when none is left the planner says why.
 //
 // Beyond the thesis. Its planners put the closing line where they saw contacts, the top and
@@ -19,6 +20,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
+#include "fast_grasp/grasping/one_seen_face.h"
 #include "fast_grasp/grasping/resting_ball.h"
 #include "fast_grasp/grasping/standing_cylinder.h"
 
@@ -46,6 +48,9 @@ struct HoldCheckParams
   /// A tall round object standing on the table (config/grasp_planners.yaml
   /// hold_check/standing_cylinder; the hold check's own). Not enabled: nothing dropped.
   StandingCylinderParams standing_cylinder;
+  /// A narrow grasp across one seen face (config/grasp_planners.yaml fused/one_seen_face,
+  /// shared with the fused planner). Not enabled: nothing dropped.
+  OneSeenFaceParams one_seen_face;
 };
 
 /// A side grasp (approach within 30 deg of horizontal) on an object at least
@@ -66,12 +71,14 @@ enum class DropRisk
   OntoHiddenSide,     // GraspAcrossCylinder::OntoHiddenSide
   HighOnBall,         // fingertipsStopHighOnBall
   ShortOfStandingAxis,  // standingSectionMissed (the hold check only: it fits the view at each grasp)
+  AcrossOneSeenFace,    // closesAcrossOneSeenFace
 };
 
-/// Judges `grasp` on the view whose extent, lying round object (fitLyingCylinder, with
+/// Judges `grasp` on `view`, whose extent, lying round object (fitLyingCylinder, with
 /// params.lying_cylinder) and resting ball (fitRestingBall, with params.resting_ball) are given.
-DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectExtent& extent,
-                  const LyingCylinder& lying, const RestingBall& ball, const HoldCheckParams& params);
+DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+                  const ObjectExtent& extent, const LyingCylinder& lying, const RestingBall& ball,
+                  const HoldCheckParams& params);
 
 /// How many grasps each rule caught (for the planners' messages).
 struct DropCounts
@@ -81,11 +88,13 @@ struct DropCounts
   std::size_t onto_hidden_side = 0;
   std::size_t high_on_ball = 0;
   std::size_t short_of_standing_axis = 0;
+  std::size_t across_one_seen_face = 0;
 
   void add(DropRisk risk);
   std::size_t total() const
   {
-    return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball + short_of_standing_axis;
+    return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball + short_of_standing_axis +
+           across_one_seen_face;
   }
 };
 
