@@ -123,6 +123,31 @@ const std::vector<std::string>& graspFeatureNames()
   return names;
 }
 
+std::vector<PointBetweenFingers> pointsBetweenOpenFingers(const GraspCandidate& grasp, const GripperModel& gripper,
+                                                          const CloudNormal& cloud)
+{
+  const Eigen::Matrix3f rotation = grasp.pose.linear().cast<float>();
+  const Eigen::Vector3f origin = grasp.pose.translation().cast<float>();
+  const float half_depth = 0.5f * static_cast<float>(gripper.finger_depth_m);
+  const float half_opening = 0.5f * static_cast<float>(gripper.max_opening_m);
+  const float half_width = 0.5f * static_cast<float>(gripper.finger_width_m);
+  std::vector<PointBetweenFingers> between;
+  for (const auto& p : cloud.points)
+  {
+    const Eigen::Vector3f q = p.getVector3fMap();
+    if (!q.allFinite())
+      continue;
+    const Eigen::Vector3f local = rotation.transpose() * (q - origin);
+    if (std::abs(local.x()) > half_depth || std::abs(local.y()) > half_opening || std::abs(local.z()) > half_width)
+      continue;
+    Eigen::Vector3f normal = p.getNormalVector3fMap();
+    if (!normal.allFinite() || normal.norm() < 0.5f)
+      normal.setZero();
+    between.push_back({ local, normal });
+  }
+  return between;
+}
+
 std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string& source, const ObjectView& view,
                                   const ObjectExtent& extent, const GripperModel& gripper)
 {
@@ -137,33 +162,19 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   const Eigen::Vector3f approach = rotation.col(0), closing = rotation.col(1);
   const float opening = static_cast<float>(gripper.max_opening_m);
   const float finger_depth = static_cast<float>(gripper.finger_depth_m);
-  const float finger_width = static_cast<float>(gripper.finger_width_m);
 
-  // Points between the open fingers (the closing region at full opening, finger-wide along Z):
-  // what the fingers will squeeze, and the ones nearest each finger are the contacts.
   float y_min = std::numeric_limits<float>::max(), y_max = -y_min;
   float x_min = std::numeric_limits<float>::max(), x_max = -x_min;
-  std::size_t between = 0;
   std::vector<std::pair<float, Eigen::Vector3f>> region;  // (y, normal)
-  for (const auto& p : view.cloud->points)
+  for (const PointBetweenFingers& point : pointsBetweenOpenFingers(grasp, gripper, *view.cloud))
   {
-    const Eigen::Vector3f q = p.getVector3fMap();
-    if (!q.allFinite())
-      continue;
-    const Eigen::Vector3f local = rotation.transpose() * (q - origin);
-    if (std::abs(local.x()) > 0.5f * finger_depth || std::abs(local.y()) > 0.5f * opening ||
-        std::abs(local.z()) > 0.5f * finger_width)
-      continue;
-    ++between;
-    y_min = std::min(y_min, local.y());
-    y_max = std::max(y_max, local.y());
-    x_min = std::min(x_min, local.x());
-    x_max = std::max(x_max, local.x());
-    Eigen::Vector3f normal = p.getNormalVector3fMap();
-    if (!normal.allFinite() || normal.norm() < 0.5f)
-      normal.setZero();
-    region.emplace_back(local.y(), normal);
+    y_min = std::min(y_min, point.local.y());
+    y_max = std::max(y_max, point.local.y());
+    x_min = std::min(x_min, point.local.x());
+    x_max = std::max(x_max, point.local.x());
+    region.emplace_back(point.local.y(), point.normal);
   }
+  const std::size_t between = region.size();
   const float height = extent.up.dot(origin) + extent.table_offset;
   const float height_frac = clampf(height / extent.height_m, -0.5f, 1.5f);
   f[k++] = height_frac;

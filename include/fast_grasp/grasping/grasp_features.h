@@ -49,6 +49,20 @@ const std::vector<std::string>& graspFeatureNames();
 /// "end" for the fused planner's end-on grasps).
 const std::vector<std::string>& graspFeatureSources();
 
+/// A seen point between a grasp's open fingers: where it is in the grasp frame (X approach,
+/// Y closing, Z across the fingers) and its normal (zero where the view has none).
+struct PointBetweenFingers
+{
+  Eigen::Vector3f local;
+  Eigen::Vector3f normal;
+};
+
+/// The view's points in the closing region at full opening, centred on the grasp: within
+/// finger_depth_m / 2 along X, max_opening_m / 2 along Y, finger_width_m / 2 along Z. What the
+/// fingers will squeeze; the ones nearest each finger are the contacts.
+std::vector<PointBetweenFingers> pointsBetweenOpenFingers(const GraspCandidate& grasp, const GripperModel& gripper,
+                                                          const CloudNormal& cloud);
+
 /// The features of `grasp` (pose already fitted by the gripper-volume check) on `view`.
 /// `source` is the candidate's planner (one of graspFeatureSources(); another sets no one-hot).
 std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string& source, const ObjectView& view,
