@@ -461,9 +461,10 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     g.grasp.score = params_.model.probability(g.grasp.features);
     g.grasp.algorithm = "fused/" + g.source;
   }
-  // Side grasps closing below a tall object's centre of mass, and grasps whose fingertips stop
-  // short of a lying round object's axis, rank after every other candidate (kept: with nothing
-  // else they are still a grasp).
+  // Side grasps closing below a tall object's centre of mass, grasps whose fingertips stop
+  // short of a lying round object's axis, and narrow grasps across one seen face rank after
+  // every other candidate (kept: with nothing else they are still a grasp), flagged drop_risk so
+  // that the table's object choice sees it too.
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
   HoldCheckParams rules;  // the same rules the hold check drops by (hold_check.h)
   rules.lying_cylinder = params_.lying_cylinder;
