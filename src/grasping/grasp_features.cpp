@@ -165,14 +165,13 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
 
   float y_min = std::numeric_limits<float>::max(), y_max = -y_min;
   float x_min = std::numeric_limits<float>::max(), x_max = -x_min;
-  std::vector<std::pair<float, Eigen::Vector3f>> region;  // (y, normal)
-  for (const PointBetweenFingers& point : pointsBetweenOpenFingers(grasp, gripper, *view.cloud))
+  const std::vector<PointBetweenFingers> region = pointsBetweenOpenFingers(grasp, gripper, *view.cloud);
+  for (const PointBetweenFingers& point : region)
   {
     y_min = std::min(y_min, point.local.y());
     y_max = std::max(y_max, point.local.y());
     x_min = std::min(x_min, point.local.x());
     x_max = std::max(x_max, point.local.x());
-    region.emplace_back(point.local.y(), point.normal);
   }
   const std::size_t between = region.size();
   const float height = extent.up.dot(origin) + extent.table_offset;
@@ -200,8 +199,9 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   // surfaces that face up, above a round object's equator, and it slips out when lifted).
   double facing = 0.0, facing_up = 0.0;
   std::size_t contacts = 0;
-  for (const auto& [y, normal] : region)
+  for (const auto& [local, normal] : region)
   {
+    const float y = local.y();
     if (y > y_max - 0.01f || y < y_min + 0.01f)
     {
       facing += std::abs(normal.dot(closing));
@@ -219,8 +219,8 @@ std::vector<double> graspFeatures(const GraspCandidate& grasp, const std::string
   for (const float side : { -1.0f, 1.0f })
   {
     Eigen::Vector3f mean = Eigen::Vector3f::Zero();
-    for (const auto& [y, normal] : region)
-      if ((side > 0.0f ? y > y_max - 0.005f : y < y_min + 0.005f) && side * normal.dot(closing) > 0.2f)
+    for (const auto& [local, normal] : region)
+      if ((side > 0.0f ? local.y() > y_max - 0.005f : local.y() < y_min + 0.005f) && side * normal.dot(closing) > 0.2f)
         mean += normal;
     if (mean.norm() < 1e-3f)
       continue;
