@@ -9,8 +9,9 @@
 // table and is long and level, on that neighbour's long axis (within its half-width), with its
 // top between the neighbour's mid-height and its top (a neck is centred on the body's axis and
 // narrower).
-// TableSegmentationParams::join_lying_necks turns it on; it is off by default because grasps did
-// not hold better with it (docs/clutter.md, "Tried: a lying bottle's neck").
+// TableSegmentationParams::join_lying_necks turns it on (the default since session 32: a heavy
+// bottle's neck picked as an object of its own drops the bottle; docs/clutter.md, "A lying
+// bottle's neck joined again").
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
