@@ -312,7 +312,8 @@ std::string FusedParams::validate() const
       !(wide_lying_body.mirror.max_free_fraction >= 0.0 && wide_lying_body.mirror.max_free_fraction <= 1.0) ||
       !(wide_lying_body.min_excess_over_opening_m >= -0.1 && wide_lying_body.min_excess_over_opening_m <= 0.1))
     why << "wide_lying_body: min_elongation must be >= 1, max_free_fraction in [0, 1], min_excess_over_opening_m in [-0.1, 0.1] m; ";
-  why << gripper_fit.validate() << lying_cylinder.validate() << one_seen_face.validate() << model.validate();
+  why << gripper_fit.validate() << lying_cylinder.validate() << one_seen_face.validate() << wide_flat_top.validate()
+      << model.validate();
   return why.str();
 }
 
@@ -348,6 +349,20 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
         refused.compute_time_s = watch.elapsedSeconds();
         return refused;
       }
+    }
+  }
+  if (params_.wide_flat_top.enabled && full_view.has_table_plane)
+  {
+    const FlatTop top = measureFlatTop(*full_view.cloud, full_view.table_plane, params_.wide_flat_top);
+    if (isWideFlatTop(top, gripper.max_opening_m, params_.wide_flat_top))
+    {
+      std::ostringstream why;
+      why << "fused: its top is one flat face " << std::lround(1000.0 * top.min_width_m)
+          << " mm wide at its narrowest, wider than the hand's " << std::lround(1000.0 * gripper.max_opening_m)
+          << " mm opening: nothing closes across it, and a pinch on its edge lifts nothing";
+      GraspResult refused = GraspResult::fail(GraspFailure::NoStableGrasp, why.str());
+      refused.compute_time_s = watch.elapsedSeconds();
+      return refused;
     }
   }
   const ObjectView view = thinned(full_view, params_.max_pooled_points);

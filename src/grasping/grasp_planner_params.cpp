@@ -368,6 +368,16 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
     face.rejectUnknownKeys();
   }
   {
+    SectionReader flat(reader.child("wide_flat_top"), "fused/wide_flat_top");
+    flat.read("enabled", p.wide_flat_top.enabled);
+    flat.readNonNegative("top_band_m", p.wide_flat_top.top_band_m);
+    flat.readNonNegative("min_up_cos", p.wide_flat_top.min_up_cos);
+    flat.readNonNegative("min_top_share", p.wide_flat_top.min_top_share);
+    flat.readNonNegative("min_height_m", p.wide_flat_top.min_height_m);
+    flat.read("min_excess_over_opening_m", p.wide_flat_top.min_excess_over_opening_m);
+    flat.rejectUnknownKeys();
+  }
+  {
     SectionReader wide(reader.child("wide_lying_body"), "fused/wide_lying_body");
     wide.read("enabled", p.wide_lying_body.enabled);
     wide.readNonNegative("min_elongation", p.wide_lying_body.mirror.min_elongation);

@@ -17,6 +17,7 @@
 #include "fast_grasp/grasping/one_seen_face.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
+#include "fast_grasp/grasping/wide_flat_top.h"
 
 #include <map>
 #include <memory>
@@ -95,6 +96,9 @@ struct FusedParams
     MirrorCompletionParams mirror;
     double min_excess_over_opening_m = 0.0;
   } wide_lying_body;
+  /// Beyond the thesis: a body whose top is one flat face wider than the hand's opening in every
+  /// direction (a cereal box lying flat) gets no grasp (NoStableGrasp, saying so): wide_flat_top.h.
+  WideFlatTopParams wide_flat_top;
   /// Grasps returned (best first) and the success probability a grasp needs to be returned.
   std::size_t max_grasps = 10;
   double min_success_probability = 0.0;
