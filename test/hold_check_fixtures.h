@@ -1,12 +1,15 @@
-// Test helper for the hold-check tests (test_lying_cylinder, test_resting_ball): an analytic
-// shape on the table seen from one camera, grasps placed by hand, and a planner that returns
-// them as a thesis planner would have. ROS-free.
+// Test helpers for the hold-check and fused-rule tests (test_lying_cylinder, test_wide_flat_top,
+// ...): an analytic shape on the table seen from one camera, grasps placed by hand, a planner
+// that returns them as a thesis planner would have, and the fused planner over them. ROS-free.
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/grasping/fused_grasp.h"
 #include "synthetic_views.h"
 
+#include <memory>
 #include <utility>
+#include <vector>
 
 namespace fast_grasp
 {
@@ -47,6 +50,25 @@ public:
 private:
   GraspResult result_;
 };
+
+/// The fused planner over `given` alone: no top-down, side or end candidates of its own, every
+/// point seen, no deeper copies. With no model weights its grasps keep their order unless a
+/// rule of fused's ranks one last or refuses the object; `adjust` sets the rule under test.
+template <typename Adjust>
+GraspResult fusedOverGivenGrasps(const GraspResult& given, const ObjectView& view, const GripperModel& gripper,
+                                 Adjust adjust)
+{
+  FusedParams fused;
+  fused.top_down_directions = 0;
+  fused.side_directions = 0;
+  fused.end_grasps = false;
+  fused.max_pooled_points = 0;
+  fused.deepen_pooled_max_m = 0.0;
+  adjust(fused);
+  std::vector<std::unique_ptr<GraspPlanner>> pooled;
+  pooled.push_back(std::make_unique<GivenGrasps>(given));
+  return FusedGraspPlanner(std::move(pooled), fused).plan(view, gripper);
+}
 
 }  // namespace hold_check_fixtures
 }  // namespace fast_grasp

@@ -112,16 +112,8 @@ TEST(OneSeenFace, TheHoldCheckDropsThePinchAndSaysWhyTheFusedPlannerRanksItLast)
 
   // The fused planner keeps it, last, flagged: planned first by its own planner, scored alike
   // (no model weights), it comes after the wide grasp, and the table's object choice sees it.
-  FusedParams fused;
-  fused.top_down_directions = 0;
-  fused.side_directions = 0;
-  fused.end_grasps = false;
-  fused.max_pooled_points = 0;
-  fused.deepen_pooled_max_m = 0.0;
-  fused.one_seen_face = enabled();
-  std::vector<std::unique_ptr<GraspPlanner>> pooled;
-  pooled.push_back(std::make_unique<GivenGrasps>(planned));
-  const GraspResult ranked = FusedGraspPlanner(std::move(pooled), fused).plan(cut, gripper);
+  const GraspResult ranked = hold_check_fixtures::fusedOverGivenGrasps(
+      planned, cut, gripper, [](FusedParams& fused) { fused.one_seen_face = enabled(); });
   ASSERT_TRUE(ranked.ok()) << ranked.message;
   ASSERT_EQ(ranked.grasps.size(), 2u);
   EXPECT_EQ(ranked.grasps.front().width_m, 0.06);

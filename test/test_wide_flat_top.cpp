@@ -18,7 +18,6 @@ namespace fast_grasp
 {
 namespace
 {
-using hold_check_fixtures::GivenGrasps;
 using hold_check_fixtures::graspAt;
 using hold_check_fixtures::tableView;
 
@@ -109,26 +108,15 @@ TEST(WideFlatTop, TheFusedPlannerRefusesABoxLyingFlatAndSaysWhy)
   GraspCandidate pinch = graspAt({ -0.08, 0.0, 0.05 }, { 0, 0, -1 }, { 1, 0, 0 }, 0.9);
   pinch.width_m = 0.008;
   planned.grasps = { pinch };
-  FusedParams fused;
-  fused.top_down_directions = 0;
-  fused.side_directions = 0;
-  fused.end_grasps = false;
-  fused.max_pooled_points = 0;
-  fused.deepen_pooled_max_m = 0.0;
-  fused.wide_flat_top = enabled();
-  std::vector<std::unique_ptr<GraspPlanner>> pooled;
-  pooled.push_back(std::make_unique<GivenGrasps>(planned));
-  const GraspResult refused = FusedGraspPlanner(std::move(pooled), fused).plan(flat, gripper);
+  const GraspResult refused = hold_check_fixtures::fusedOverGivenGrasps(
+      planned, flat, gripper, [](FusedParams& fused) { fused.wide_flat_top = enabled(); });
   EXPECT_EQ(refused.failure, GraspFailure::NoStableGrasp);
   EXPECT_TRUE(refused.grasps.empty());
   EXPECT_NE(refused.message.find("its top is one flat face 16"), std::string::npos) << refused.message;
   EXPECT_NE(refused.message.find("wider than the hand's 85 mm opening"), std::string::npos) << refused.message;
 
   // Off, the planner's grasp comes through (the rule, not something else, refused it).
-  fused.wide_flat_top.enabled = false;
-  std::vector<std::unique_ptr<GraspPlanner>> again;
-  again.push_back(std::make_unique<GivenGrasps>(planned));
-  const GraspResult kept = FusedGraspPlanner(std::move(again), fused).plan(flat, gripper);
+  const GraspResult kept = hold_check_fixtures::fusedOverGivenGrasps(planned, flat, gripper, [](FusedParams&) {});
   EXPECT_EQ(kept.message.find("flat face"), std::string::npos) << kept.message;
 }
 
