@@ -62,8 +62,11 @@ FlatTop measureFlatTop(const pcl::PointCloud<pcl::PointNormal>& cloud, const Eig
   top.flat = !footprint.empty() && top.top_share >= params.min_top_share && highest >= params.min_height_m;
   if (!top.flat)
     return top;
-  // The narrowest extent over directions: 36 steps of 5 degrees over half a turn (the width
-  // at most cos(2.5 deg) short of the true minimum, 0.1 %).
+  // The narrowest extent over directions: 36 steps of 5 degrees over half a turn. A step can
+  // miss the narrowest direction by 2.5 degrees, so the width read may exceed the true one by
+  // up to the top's length x sin(2.5 deg) (9 mm on a 21 cm box at the worst angle): a top reads
+  // wider, never narrower, and one truly narrower than the opening plus the margin is refused
+  // only if it is longer than (opening + margin - width) / sin(2.5 deg) (23 cm for a 9.5 cm top).
   constexpr int kDirections = 36;
   double narrowest = std::numeric_limits<double>::infinity();
   for (int k = 0; k < kDirections; ++k)
