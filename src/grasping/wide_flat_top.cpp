@@ -56,9 +56,7 @@ FlatTop measureFlatTop(const pcl::PointCloud<pcl::PointNormal>& cloud, const Eig
     if (q.allFinite() && n.allFinite() && up.dot(q) + table_plane[3] >= band_floor && n.dot(up) >= up_cos)
       footprint.emplace_back(u.dot(q), v.dot(q));
   }
-  top.top_points = footprint.size();
   top.top_share = static_cast<double>(footprint.size()) / static_cast<double>(seen);
-  top.height_m = highest;
   top.flat = !footprint.empty() && top.top_share >= params.min_top_share && highest >= params.min_height_m;
   if (!top.flat)
     return top;

@@ -26,7 +26,6 @@
 
 #include <Eigen/Core>
 
-#include <cstddef>
 #include <string>
 
 namespace fast_grasp
@@ -53,11 +52,9 @@ struct WideFlatTopParams
 
 struct FlatTop
 {
-  std::size_t top_points = 0;  // seen points in the top face
   double top_share = 0.0;      // ... as a share of all seen points
   double min_width_m = 0.0;    // its narrowest horizontal extent (0 when it is not a flat top)
-  double height_m = 0.0;       // the highest seen point above the table
-  bool flat = false;           // top_share >= min_top_share and height_m >= min_height_m
+  bool flat = false;           // top_share >= min_top_share and the top is min_height_m high
 };
 
 /// The flat top of `cloud` (with normals toward the sensor) resting on `table_plane` (a, b, c, d
