@@ -2,7 +2,7 @@
 """Clearing a cluttered table: the clutter-removal protocol of VGN/GIGA in MuJoCo (issue 11 part 4).
 
 Per table: 3-6 objects of the training half of config/evaluation/objects.yaml (`--split
-heldout`: of the held-out half, for reporting only; never tune on it) that fit the gripper
+heldout` or `heldout_extra`: of a held-out half, for reporting only; never tune on it) that fit the gripper
 standing upright, *packed* (upright, side by side, touching) or *piled* (dropped
 onto each other and settled), seeded (scripts/grasp_physics/clutter.py). Then, until the table
 is empty, no grasp is found or two grasps in a row fail: render the remaining objects with the
@@ -66,8 +66,9 @@ def parse_args(argv):
     p.add_argument("--arrangements", default="packed,piled", help="packed, piled or both")
     p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
     p.add_argument("--objects", default="", help="comma list of object names to draw from (default: the --split half)")
-    p.add_argument("--split", default="train", choices=["train", "heldout"],
-                   help="which half of the objects config the tables are drawn from (heldout: report, never tune)")
+    p.add_argument("--split", default="train", choices=["train", "heldout", "heldout_extra"],
+                   help="which half of the objects config the tables are drawn from (grasp_physics.objects.SPLITS; "
+                        "heldout and heldout_extra: report, never tune)")
     p.add_argument("--kinds", default="ycb,parametric",
                    help="ycb, parametric or both (ycb is skipped when no YCB folder is given)")
     p.add_argument("--friction", type=float, default=0.8)

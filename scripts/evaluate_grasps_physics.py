@@ -72,7 +72,9 @@ def parse_args(argv):
     p.add_argument("--planners", default=",".join(PLANNERS + ["baseline"]),
                    help="comma list of grasp_offline algorithms and/or baseline")
     p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
-    p.add_argument("--split", default="heldout", choices=["train", "heldout", "all"])
+    p.add_argument("--split", default="heldout", choices=["train", "heldout", "heldout_extra", "all"],
+                   help="a half of the objects config (grasp_physics.objects.SPLITS; both heldout halves: "
+                        "report, never tune) or all of them")
     p.add_argument("--objects", default="", help="comma list of object names (default: all of the split)")
     p.add_argument("--kinds", default="ycb,parametric", help="ycb, parametric or both")
     p.add_argument("--poses", type=int, default=3, help="resting poses per object (pose 0 upright)")
@@ -376,7 +378,7 @@ def main(argv):
                                                                  time.time() - t0),
            "| planner | trials | success % | clean success % | unexpected contact % | no grasp % | held when returned % | median planning ms |",
            "|---|---|---|---|---|---|---|---|"]
-    splits = ["train", "heldout"] if args.split == "all" else [args.split]
+    splits = list(objects_lib.SPLITS) if args.split == "all" else [args.split]
     final = []
     for split in splits:
         label = "single" if not args.follow_next_view else "within-%d-views" % (1 + args.follow_next_view)

