@@ -124,6 +124,20 @@ class ClutterTest(unittest.TestCase):
         self.assertTrue(outcome["unexpected_contact"], outcome)
         self.assertIn(outcome["touched_first"], (0, 2), outcome)
 
+    def test_interval_over_tables(self):
+        import evaluate_clutter_physics as clutter_eval
+        # every table alike: any resample of them has the same rate, so the interval is that rate
+        same = [{"successes": 4, "attempts": 5}] * 10
+        self.assertEqual(clutter_eval.interval_over_tables(same, "successes", "attempts"), (80.0, 80.0))
+        # half the tables 5 of 5, half 0 of 5 (50 %): resampling 10 tables moves the rate a lot
+        # (binomial(10, 1/2) tables of 5 / 10: 2.5 % of resamples at or below 2 of 10, 20 %)
+        split = [{"successes": 5, "attempts": 5}] * 5 + [{"successes": 0, "attempts": 5}] * 5
+        lo, hi = clutter_eval.interval_over_tables(split, "successes", "attempts")
+        self.assertTrue(10.0 <= lo <= 30.0 and 70.0 <= hi <= 90.0, (lo, hi))
+        self.assertEqual((lo, hi), clutter_eval.interval_over_tables(split, "successes", "attempts"))  # seeded
+        nan = clutter_eval.interval_over_tables([], "successes", "attempts")
+        self.assertTrue(all(v != v for v in nan))
+
     def test_fixed_packed_table_cleared_twice_the_same(self):
         def run(out_dir, extra=("--tables", "1")):
             cmd = [sys.executable, os.path.join(ROOT, "scripts/evaluate_clutter_physics.py"), "--planners", "fused",

@@ -144,6 +144,20 @@ class TrialTest(unittest.TestCase):
                                          kinds=("parametric",))
         self.assertEqual(extra, [])  # the second held-out half is YCB scans only
 
+    def test_wilson_interval_by_hand(self):
+        import evaluate_grasps_physics as single
+        # 12 of 15: p = 0.8, z = 1.96; centre (0.8 + z^2/30) / (1 + z^2/15) = 0.7388, half-width
+        # z sqrt(0.8 * 0.2 / 15 + z^2 / 900) / (1 + z^2/15) = 0.1907
+        lo, hi = single.wilson_interval(12, 15)
+        self.assertAlmostEqual(lo, 54.8, delta=0.1)
+        self.assertAlmostEqual(hi, 93.0, delta=0.1)
+        # 20 of 20: the upper end is 100 %, the lower n / (n + z^2) = 83.9 %
+        lo, hi = single.wilson_interval(20, 20)
+        self.assertAlmostEqual(lo, 83.9, delta=0.1)
+        self.assertAlmostEqual(hi, 100.0, delta=1e-9)
+        self.assertEqual(single.rate_cell(12, 15), "80 (12 / 15, 55-93)")
+        self.assertEqual(single.rate_cell(0, 0), "- (0 / 0)")
+
     def test_ycb_meshes_default_to_the_workspace_cache(self):
         # the set-up command fills <workspace>/ycb (scripts/fetch_ycb.sh); the evaluators find it
         # there without FAST_GRASP_YCB_DIR, and say "" (no YCB objects) when it is missing
