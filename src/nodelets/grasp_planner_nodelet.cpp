@@ -95,6 +95,8 @@ GraspPlannerNodelet::~GraspPlannerNodelet()
 {
   gate_.close();  // after ros::shutdown() the subscribers' shutdown no longer waits (callback_gate.h)
   scene_sub_.shutdown();
+  if (scene_spinner_)
+    scene_spinner_->stop();
   cloud_sub_.shutdown();
   objects_sub_.shutdown();
 }
@@ -152,9 +154,12 @@ void GraspPlannerNodelet::onInit()
   grasps_pub_ = private_nh_.advertise<fast_grasp::GraspArray>("grasps", 5);
   markers_pub_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
   next_view_pub_ = private_nh_.advertise<geometry_msgs::PoseStamped>("next_view", 2, /*latch=*/true);
-  // The multi-threaded queue: a cloud callback waiting for the first plane (tablePlaneFor) must
-  // not hold up the scene that carries it.
-  scene_sub_ = getMTNodeHandle().subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
+  // Its own queue and thread (the member's comment says why not the manager's queues).
+  ros::NodeHandle scene_nh(getNodeHandle());
+  scene_nh.setCallbackQueue(&scene_queue_);
+  scene_sub_ = scene_nh.subscribe("segmented_scene", 5, &GraspPlannerNodelet::sceneCallback, this);
+  scene_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &scene_queue_);
+  scene_spinner_->start();
   if (all_objects_)
     objects_sub_ = nh_.subscribe<ObjectsCloud>("objects_in", 2, &GraspPlannerNodelet::objectsCallback, this);
   else

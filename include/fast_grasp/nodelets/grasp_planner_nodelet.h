@@ -16,6 +16,7 @@
 
 #include <nodelet/nodelet.h>
 #include <pcl_ros/point_cloud.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -82,11 +83,19 @@ private:
   void publishNextView(const GraspResult& result, const std_msgs::Header& header);
 
   CallbackGate gate_;  // first: destroyed last (callback_gate.h)
+  // The scene's own queue and thread (not the manager's multi-threaded queue): a cloud callback
+  // waiting for the first plane (tablePlaneFor) must not hold up the scene that carries it, and
+  // a nodelet unloaded during a cloud callback is destroyed by the worker running it, after the
+  // manager may have freed its other queue: unsubscribing from that one crashed
+  // (Subscription::removeCallback, test_nodelet_unload, session 33). This queue lives as long as
+  // the nodelet; declared before scene_sub_ and the spinner, it is destroyed after them.
+  ros::CallbackQueue scene_queue_;
   ros::NodeHandle nh_;
   ros::NodeHandle private_nh_;
   ros::Subscriber cloud_sub_;
   ros::Subscriber objects_sub_;
   ros::Subscriber scene_sub_;
+  std::unique_ptr<ros::AsyncSpinner> scene_spinner_;  // one thread on scene_queue_
   ros::Publisher grasps_pub_;
   ros::Publisher markers_pub_;
   ros::Publisher next_view_pub_;
