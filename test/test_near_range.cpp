@@ -8,12 +8,16 @@
 #include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/grasping/table_grasps.h"
 
+#include "fast_grasp/grasping/hold_check.h"
+#include "hold_check_fixtures.h"
 #include "synthetic_views.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <string>
+#include <yaml-cpp/yaml.h>
 
 namespace fast_grasp
 {
@@ -66,7 +70,31 @@ NearRangeParams xtion()
 {
   NearRangeParams params;
   params.sensor_min_range_m = kMinRange;
+  params.add_blind_space = true;
+  params.flag_grasps_on_cut = true;
   return params;
+}
+
+/// The camera looks down and forward (+x) along (0.814, 0, -0.581): the 0.5 m plane cuts the
+/// bottle's seen front lowest where it is nearest, at its middle (x = 0.385, y = 0):
+/// 0.814 * 0.385 + 0.581 * (0.45 - z) = 0.5 gives z = 0.129 m. From above, closing along x (the
+/// line of sight) on that front rim, 15 mm wide, as the fused planner pinched the cut faces of
+/// standing bottles and boxes in physics: the hand comes down onto the invisible top.
+GraspCandidate pinchOnTheCut(double score = 0.0)
+{
+  GraspCandidate grasp = hold_check_fixtures::graspAt({ 0.39, kBottleBase.y(), 0.125 }, { 0, 0, -1 }, { 1, 0, 0 }, score);
+  grasp.width_m = 0.015;
+  return grasp;
+}
+
+/// From the camera's side, horizontally, closing along y 5 cm above the table: 8 cm below the
+/// lowest cut, the whole bottle seen there.
+GraspCandidate graspLowOnTheBody(double score = 0.0)
+{
+  GraspCandidate grasp = hold_check_fixtures::graspAt({ kBottleBase.x(), kBottleBase.y(), 0.05 }, { 1, 0, 0 },
+                                                      { 0, 1, 0 }, score);
+  grasp.width_m = 0.07;
+  return grasp;
 }
 
 TEST(NearRange, BlindSpaceStandsOnTheCutAndNearerThanTheLimit)
@@ -138,7 +166,8 @@ TEST(NearRange, AddedToTheObstaclesOnlyWithTheCameraPose)
 TEST(NearRange, FusedHandsStayOutOfTheInvisibleTop)
 {
   GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
-  config.near_range.sensor_min_range_m = kMinRange;  // opt-in: the shipped file has it off
+  config.near_range.sensor_min_range_m = kMinRange;
+  config.near_range.add_blind_space = true;  // opt-in: the shipped file has it off
   const auto planner = makeGraspPlanner("fused", config);
   ASSERT_TRUE(planner);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
@@ -163,8 +192,10 @@ TEST(NearRange, FusedHandsStayOutOfTheInvisibleTop)
   // the hand closes around the invisible top. (The rim seen from outside is one face whose
   // depth is unseen: fused/one_seen_face already ranks the narrowest of those pinches last, so
   // it is off here, to show the blind space's own effect.)
+  // Nor does the flag on grasps closing on the cut (below), for the same reason.
   GraspPlannerConfig without_face_rule = config;
   without_face_rule.fused.one_seen_face.enabled = false;
+  without_face_rule.near_range.flag_grasps_on_cut = false;
   const GraspResult unaware = makeGraspPlanner("fused", without_face_rule)->plan(view, gripper);
   ASSERT_TRUE(unaware.ok()) << unaware.message;
   EXPECT_TRUE(handSweepHits(unaware.grasps.front().pose, gripper, invisible, 0.0, 0.0));
@@ -177,6 +208,78 @@ TEST(NearRange, FusedHandsStayOutOfTheInvisibleTop)
   for (const GraspCandidate& g : result.grasps)
     EXPECT_FALSE(handSweepHits(g.pose, gripper, invisible, 0.0, 0.0))
         << "grasp at z " << g.pose.translation().z() << " (cut at " << cut_top << ") reaches into the bottle's top";
+}
+
+TEST(NearRange, AGraspClosingOnTheCutIsFlaggedNotOneBelowIt)
+{
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const ObjectView cut = cutBottleView(kMinRange);
+  EXPECT_TRUE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, xtion()));
+  EXPECT_FALSE(closesOnNearLimitCut(graspLowOnTheBody(), gripper, cut, xtion()));
+  // Off, or no range, or no camera pose on the cloud: nothing judged.
+  NearRangeParams off = xtion();
+  off.flag_grasps_on_cut = false;
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, off));
+  NearRangeParams unknown_camera = xtion();
+  unknown_camera.sensor_min_range_m = 0.0;
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, unknown_camera));
+  ObjectView posed_nowhere = cut;
+  auto bare = std::make_shared<CloudNormal>(*cut.cloud);
+  bare->sensor_origin_.setZero();
+  posed_nowhere.cloud = bare;
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, posed_nowhere, xtion()));
+  // Seen whole (a 0.3 m range): its real top is no cut, however near the 0.3 m limit is.
+  const ObjectView whole = cutBottleView(0.3);
+  NearRangeParams short_range = xtion();
+  short_range.sensor_min_range_m = 0.3;
+  GraspCandidate on_the_top = hold_check_fixtures::graspAt({ kBottleBase.x(), kBottleBase.y(), kHeight - 0.01 },
+                                                           { 0, 0, -1 }, { 0, 1, 0 });
+  EXPECT_FALSE(closesOnNearLimitCut(on_the_top, gripper, whole, short_range));
+}
+
+TEST(NearRange, TheHoldCheckDropsAGraspOnTheCutTheFusedPlannerRanksItLast)
+{
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const ObjectView cut = cutBottleView(kMinRange);
+  GraspResult planned;
+  planned.grasps = { pinchOnTheCut(0.9), graspLowOnTheBody(0.5) };
+  HoldCheckParams params;
+  params.near_range = xtion();
+  const GraspResult checked =
+      HoldCheckedPlanner(std::make_unique<hold_check_fixtures::GivenGrasps>(planned), params).plan(cut, gripper);
+  ASSERT_TRUE(checked.ok()) << checked.message;
+  ASSERT_EQ(checked.grasps.size(), 1u);
+  EXPECT_NEAR(checked.grasps.front().pose.translation().z(), 0.05, 1e-9);
+  EXPECT_NE(checked.message.find("dropped 1 grasps closing where the camera's near limit cut the object"),
+            std::string::npos)
+      << checked.message;
+
+  const GraspResult ranked = hold_check_fixtures::fusedOverGivenGrasps(
+      planned, cut, gripper, [](FusedParams& fused) { fused.near_range = xtion(); });
+  ASSERT_TRUE(ranked.ok()) << ranked.message;
+  ASSERT_EQ(ranked.grasps.size(), 2u);
+  EXPECT_FALSE(ranked.grasps.front().drop_risk);
+  EXPECT_NEAR(ranked.grasps.front().pose.translation().z(), 0.05, 0.01);
+  EXPECT_TRUE(ranked.grasps.back().drop_risk);
+  EXPECT_NE(ranked.message.find("near limit cut the object, ranked last: 1"), std::string::npos) << ranked.message;
+}
+
+TEST(NearRange, TheShippedConfigFlagsGraspsOnTheCutAndAddsNoBlindSpace)
+{
+  const GraspPlannerConfig config = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  EXPECT_EQ(config.near_range.sensor_min_range_m, 0.5);
+  EXPECT_TRUE(config.near_range.flag_grasps_on_cut);
+  EXPECT_FALSE(config.near_range.add_blind_space);
+  ObjectView view = cutBottleView(kMinRange);
+  EXPECT_EQ(addNearRangeBlindSpace(view, config.near_range), 0u);
+  EXPECT_FALSE(view.obstacles);
+  const NearRangeParams read =
+      nearRangeParamsFromYaml(YAML::Load("{sensor_min_range_m: 0.45, add_blind_space: true, flag_grasps_on_cut: false}"));
+  EXPECT_EQ(read.sensor_min_range_m, 0.45);
+  EXPECT_TRUE(read.add_blind_space);
+  EXPECT_FALSE(read.flag_grasps_on_cut);
+  for (const char* bad : { "{flag_grasps_on_cut: 3}", "{no_such_key: 1}" })
+    EXPECT_THROW(nearRangeParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
 }
 
 }  // namespace

@@ -41,6 +41,8 @@ ObjectView thinned(const ObjectView& view, std::size_t max_points)
   for (std::size_t i = 0; i < view.cloud->size(); i += stride)
     cloud->push_back(view.cloud->points[i]);
   cloud->header = view.cloud->header;
+  cloud->sensor_origin_ = view.cloud->sensor_origin_;  // the camera (near_range.h judges by it)
+  cloud->sensor_orientation_ = view.cloud->sensor_orientation_;
   ObjectView out = view;
   out.cloud = cloud;
   return out;
@@ -477,7 +479,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     g.grasp.algorithm = "fused/" + g.source;
   }
   // Side grasps closing below a tall object's centre of mass, grasps whose fingertips stop
-  // short of a lying round object's axis, and narrow grasps across one seen face rank after
+  // short of a lying round object's axis, narrow grasps across one seen face and grasps closing
+  // on the near limit's cut rank after
   // every other candidate (kept: with nothing else they are still a grasp), flagged drop_risk so
   // that the table's object choice sees it too.
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
@@ -490,7 +493,15 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   DropCounts demoted;
   for (auto& g : pool)
   {
-    const DropRisk risk = dropRisk(g.grasp, gripper, view, extent, lying, RestingBall{}, rules);
+    DropRisk risk = dropRisk(g.grasp, gripper, view, extent, lying, RestingBall{}, rules);
+    // The cut is a line of points that thinning would halve: judged on the full view. Not an
+    // end-on grasp: there the cut is a lying body's near end, and the body goes on along the
+    // approach (the palm meets its true end and pushes it along its axis while the fingers
+    // close across it). Flagged, a lying wine bottle's end-on grasps that held gave way to
+    // pinches from above that closed on nothing (training piles, session 34: 7 -> 13 failures).
+    if (risk == DropRisk::None && !g.without_unseen &&
+        closesOnNearLimitCut(g.grasp, gripper, full_view, params_.near_range))
+      risk = DropRisk::OnNearLimitCut;
     g.grasp.drop_risk = risk != DropRisk::None;
     demoted.add(risk);
   }
@@ -502,6 +513,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
             << "; open hand onto its hidden side, ranked last: " << demoted.onto_hidden_side << "; ";
   if (demoted.across_one_seen_face > 0)
     summary << "narrow across one seen face (its depth unseen), ranked last: " << demoted.across_one_seen_face << "; ";
+  if (demoted.on_near_limit_cut > 0)
+    summary << "closing where the camera's near limit cut the object, ranked last: " << demoted.on_near_limit_cut << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.grasp.drop_risk != b.grasp.drop_risk ? b.grasp.drop_risk : a.grasp.score > b.grasp.score;
   });

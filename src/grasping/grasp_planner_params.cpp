@@ -468,6 +468,8 @@ NearRangeParams nearRangeParamsFromYaml(const YAML::Node& section)
   NearRangeParams p;
   SectionReader reader(section, "near_range");
   reader.readNonNegative("sensor_min_range_m", p.sensor_min_range_m);
+  reader.read("add_blind_space", p.add_blind_space);
+  reader.read("flag_grasps_on_cut", p.flag_grasps_on_cut);
   reader.readPositive("margin_m", p.margin_m);
   reader.readCount("min_points", p.min_points, 1);
   reader.readPositive("extension_m", p.extension_m);
@@ -565,6 +567,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     HoldCheckParams hold;
     hold.lying_cylinder = config.fused.lying_cylinder;
     hold.one_seen_face = config.fused.one_seen_face;
+    hold.near_range = config.near_range;
     hold.approach_opening_m = config.fused.gripper_fit.approach_opening_m;
     if (config.hold_check.tall_objects)
     {
@@ -596,7 +599,9 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
       if (name != "fused")  // fusedParamsFromYaml rejects it; never recurse
         if (auto planner = makeThesisPlanner(name, pooled_config))  // unchecked: fused ranks them itself
           pooled.push_back(std::move(planner));
-    return std::make_unique<FusedGraspPlanner>(std::move(pooled), config.fused);
+    FusedParams fused = config.fused;
+    fused.near_range = config.near_range;  // one camera for the whole file
+    return std::make_unique<FusedGraspPlanner>(std::move(pooled), fused);
   }
   return nullptr;
 }

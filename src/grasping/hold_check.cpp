@@ -42,6 +42,8 @@ DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, cons
     return DropRisk::HighOnBall;
   if (closesAcrossOneSeenFace(grasp, gripper, view, params.one_seen_face))
     return DropRisk::AcrossOneSeenFace;
+  if (closesOnNearLimitCut(grasp, gripper, view, params.near_range))
+    return DropRisk::OnNearLimitCut;
   return DropRisk::None;
 }
 
@@ -67,6 +69,9 @@ void DropCounts::add(DropRisk risk)
     case DropRisk::AcrossOneSeenFace:
       ++across_one_seen_face;
       break;
+    case DropRisk::OnNearLimitCut:
+      ++on_near_limit_cut;
+      break;
     case DropRisk::None:
       break;
   }
@@ -82,6 +87,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   GraspResult result = planner_->plan(view, gripper);
   if (!result.ok() || (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled &&
                        !params_.standing_cylinder.enabled && !params_.one_seen_face.enabled &&
+                       !(params_.near_range.flag_grasps_on_cut && params_.near_range.sensor_min_range_m > 0.0) &&
                        !(params_.tall_object_min_height_m > 0.0)))
     return result;
   const Stopwatch watch;
@@ -137,6 +143,10 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
     why << (why.tellp() > 0 ? "; " : "") << "dropped " << dropped.across_one_seen_face
         << " narrow grasps across one seen face whose depth the camera never saw (the far finger lands inside "
            "the hidden body)";
+  if (dropped.on_near_limit_cut > 0)
+    why << (why.tellp() > 0 ? "; " : "") << "dropped " << dropped.on_near_limit_cut
+        << " grasps closing where the camera's near limit cut the object (the hand comes down onto what it "
+           "could not see)";
   const double spent_s = result.compute_time_s + watch.elapsedSeconds();
   if (kept.empty())
   {

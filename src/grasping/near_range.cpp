@@ -1,10 +1,13 @@
 #include "fast_grasp/grasping/near_range.h"
 
+#include "fast_grasp/grasping/grasp_features.h"
+
 #include <Eigen/Geometry>
 
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <unordered_set>
 #include <vector>
@@ -99,19 +102,43 @@ NearRangeBlindSpace nearRangeBlindSpace(const CloudNormal& cloud, const Eigen::V
   return blind;
 }
 
+std::optional<CloudCamera> cloudCamera(const CloudNormal& cloud)
+{
+  const Eigen::Vector3f origin = cloud.sensor_origin_.head<3>();
+  const Eigen::Quaternionf& orientation = cloud.sensor_orientation_;
+  if (!origin.allFinite() || origin.isZero() || !orientation.coeffs().allFinite() ||
+      !(orientation.norm() > 0.5f) || orientation.coeffs().isApprox(Eigen::Quaternionf::Identity().coeffs()))
+    return std::nullopt;
+  return CloudCamera{ origin, orientation.normalized() * Eigen::Vector3f::UnitZ() };
+}
+
+bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+                          const NearRangeParams& params)
+{
+  if (!params.flag_grasps_on_cut || !(params.sensor_min_range_m > 0.0) || !view.cloud)
+    return false;
+  const std::optional<CloudCamera> camera = cloudCamera(*view.cloud);
+  if (!camera)
+    return false;
+  const auto deepest = static_cast<float>(params.sensor_min_range_m + params.margin_m);
+  const Eigen::Isometry3f pose = grasp.pose.cast<float>();
+  std::size_t at_limit = 0;
+  for (const PointBetweenFingers& point : pointsBetweenOpenFingers(grasp, gripper, *view.cloud))
+    if ((pose * point.local - camera->origin).dot(camera->optical_axis) <= deepest && ++at_limit >= params.min_points)
+      return true;
+  return false;
+}
+
 std::size_t addNearRangeBlindSpace(ObjectView& view, const NearRangeParams& params)
 {
-  if (!(params.sensor_min_range_m > 0.0) || !view.cloud)
+  if (!params.add_blind_space || !(params.sensor_min_range_m > 0.0) || !view.cloud)
     return 0;
-  const Eigen::Vector3f origin = view.cloud->sensor_origin_.head<3>();
-  const Eigen::Quaternionf& orientation = view.cloud->sensor_orientation_;
-  // Nobody set the camera pose (PCL's defaults): its blind zone is unknown.
-  if (!origin.allFinite() || origin.isZero() || !orientation.coeffs().allFinite() ||
-      orientation.coeffs().isApprox(Eigen::Quaternionf::Identity().coeffs()))
+  // Nobody set the camera pose: its blind zone is unknown.
+  const std::optional<CloudCamera> camera = cloudCamera(*view.cloud);
+  if (!camera)
     return 0;
   const Eigen::Vector3f up = view.has_table_plane ? Eigen::Vector3f(view.table_plane.head<3>()) : Eigen::Vector3f(-view.gravity);
-  const NearRangeBlindSpace blind =
-      nearRangeBlindSpace(*view.cloud, origin, orientation.normalized() * Eigen::Vector3f::UnitZ(), up, params);
+  const NearRangeBlindSpace blind = nearRangeBlindSpace(*view.cloud, camera->origin, camera->optical_axis, up, params);
   if (blind.points.empty())
     return 0;
   auto obstacles = std::make_shared<CloudXYZ>();

@@ -14,6 +14,7 @@
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
+#include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/grasping/one_seen_face.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
@@ -57,6 +58,10 @@ struct FusedParams
   /// A narrow grasp across one face seen from in front, its depth unseen (one_seen_face.h),
   /// ranks after every other candidate (shared with the thesis planners' hold check).
   OneSeenFaceParams one_seen_face;
+  /// A grasp closing where the camera's near limit cut the object (near_range.h,
+  /// closesOnNearLimitCut) ranks after every other candidate. Not a fused/ key: makeGraspPlanner
+  /// copies the top-level near_range section here (one camera, shared with the hold check).
+  NearRangeParams near_range;
   /// End-on candidates: approach horizontally along the footprint's major axis from each end,
   /// the palm palm_clearance_m before the end, closing across what the fingers surround at the
   /// centroid's height. Beyond the thesis: a round object lying down (a can, a bottle) longer

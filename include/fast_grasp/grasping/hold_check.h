@@ -5,7 +5,8 @@
 // on it; on a tall round object standing on the table (standing_cylinder.h) a side grasp whose
 // fingertips stop well short of its axis; on a tall standing object (optionally) a side grasp
 // closing below its centre of mass; a narrow grasp across one seen face whose depth the camera
-// never saw (one_seen_face.h).
+// never saw (one_seen_face.h); a grasp closing where the camera's near limit cut the object
+// (near_range.h).
 // Those are dropped, and when none is left the planner says why.
 //
 // Beyond the thesis. Its planners put the closing line where they saw contacts, the top and
@@ -20,6 +21,7 @@
 #include "fast_grasp/core/grasp_types.h"
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/lying_cylinder.h"
+#include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/grasping/one_seen_face.h"
 #include "fast_grasp/grasping/resting_ball.h"
 #include "fast_grasp/grasping/standing_cylinder.h"
@@ -51,6 +53,9 @@ struct HoldCheckParams
   /// A narrow grasp across one seen face (config/grasp_planners.yaml fused/one_seen_face,
   /// shared with the fused planner). Not enabled: nothing dropped.
   OneSeenFaceParams one_seen_face;
+  /// The camera's near limit (config/grasp_planners.yaml near_range, shared with the fused
+  /// planner). flag_grasps_on_cut off or no range: nothing dropped.
+  NearRangeParams near_range;
 };
 
 /// A side grasp (approach within 30 deg of horizontal) on an object at least
@@ -72,6 +77,7 @@ enum class DropRisk
   HighOnBall,         // fingertipsStopHighOnBall
   ShortOfStandingAxis,  // standingSectionMissed (the hold check only: it fits the view at each grasp)
   AcrossOneSeenFace,    // closesAcrossOneSeenFace
+  OnNearLimitCut,       // closesOnNearLimitCut
 };
 
 /// Judges `grasp` on `view`, whose extent, lying round object (fitLyingCylinder, with
@@ -89,12 +95,13 @@ struct DropCounts
   std::size_t high_on_ball = 0;
   std::size_t short_of_standing_axis = 0;
   std::size_t across_one_seen_face = 0;
+  std::size_t on_near_limit_cut = 0;
 
   void add(DropRisk risk);
   std::size_t total() const
   {
     return below_centre_of_mass + short_of_axis + onto_hidden_side + high_on_ball + short_of_standing_axis +
-           across_one_seen_face;
+           across_one_seen_face + on_near_limit_cut;
   }
 };
 

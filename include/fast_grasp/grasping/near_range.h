@@ -13,14 +13,27 @@
 // points at the limit are where the object goes on, and it can only go on into space nearer
 // than the limit. Where exactly is unknown; the blind space assumes the two ways a table-top
 // object leaves a downward-looking camera's range: upward (a tall object's top) and along the
-// line of sight toward the camera (its near side). ROS-free.
+// line of sight toward the camera (its near side).
+//
+// Two uses of the same cut. The blind space as obstacles (add_blind_space) keeps every hand out
+// of it, and measured in physics it costs more than it saves: it also blocks neighbours' grasps
+// and every grasp of a bottle lying cut toward the camera (docs/clutter.md "Tried: the camera's
+// blind zone again"). The lighter use (flag_grasps_on_cut, session 34): a grasp whose fingers
+// close on the points at the cut is expected to drop, because the hand comes down onto the
+// invisible rest. On the training piles every pinch that touched its object before the
+// pre-grasp (8 over six runs: a cracker box or bleach bottle standing, pinched 13-16 mm wide
+// on its cut rim) was on an object reaching nearer than the renderer's 0.5 m. The fused
+// planner ranks such grasps last (with nothing else they are still a grasp); the hold check
+// drops them from a thesis planner's answer (hold_check.h). ROS-free.
 #pragma once
 
 #include "fast_grasp/core/grasp_types.h"
+#include "fast_grasp/core/gripper_model.h"
 
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <optional>
 #include <string>
 
 namespace fast_grasp
@@ -31,6 +44,12 @@ struct NearRangeParams
   /// The camera gives no depth nearer than this along its optical axis; 0 = never assume an
   /// object goes on unseen (a camera without a blind zone, or an unknown one).
   double sensor_min_range_m = 0.0;
+  /// Add the blind space to each view's obstacles (addNearRangeBlindSpace); off, nothing is
+  /// added whatever the range.
+  bool add_blind_space = false;
+  /// Flag grasps closing on the cut (closesOnNearLimitCut): the fused planner ranks them last,
+  /// the hold check drops them.
+  bool flag_grasps_on_cut = false;
   /// Seen points at most this much deeper than the limit are at the cut: a cut object has a
   /// line of points right at the limit (within the noise), an object merely near it rarely
   /// reaches this close (2 cm took low objects 1-2 cm beyond it for cut).
@@ -64,12 +83,30 @@ NearRangeBlindSpace nearRangeBlindSpace(const CloudNormal& cloud, const Eigen::V
                                         const Eigen::Vector3f& optical_axis, const Eigen::Vector3f& up,
                                         const NearRangeParams& params);
 
+/// The camera that took `cloud`: its sensor_origin_ and its sensor_orientation_'s z axis (the
+/// optical frame, as CloudPreprocess sets them). None when nobody set them (PCL's defaults:
+/// zero origin, identity orientation; e.g. a cloud that crossed a process boundary).
+struct CloudCamera
+{
+  Eigen::Vector3f origin;
+  Eigen::Vector3f optical_axis;  // unit
+};
+std::optional<CloudCamera> cloudCamera(const CloudNormal& cloud);
+
+/// Whether `grasp` closes on where `view`'s object was cut by the near limit: at least
+/// params.min_points of the seen points between its open fingers (the closing region at full
+/// opening, finger-wide) lie within margin_m of the limit. False when flag_grasps_on_cut is off,
+/// the range is 0 or the cloud carries no camera pose (cloudCamera).
+bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+                          const NearRangeParams& params);
+
 /// Adds the blind space of `view`'s object to view.obstacles, which every planner's hand
 /// check keeps out of (and planTableGrasps sweeps each hand's way in against). The camera is
 /// the cloud's own sensor_origin_ and sensor_orientation_ (the optical frame: z along the view,
 /// as CloudPreprocess sets them); an unset pose (zero origin or identity orientation, e.g. a
 /// cloud that crossed a process boundary) adds nothing. "Up" is the table plane's normal, else
-/// -gravity. Returns the seen points at the limit (0: nothing added).
+/// -gravity. Returns the seen points at the limit (0: nothing added, as when add_blind_space is
+/// off).
 std::size_t addNearRangeBlindSpace(ObjectView& view, const NearRangeParams& params);
 
 }  // namespace fast_grasp
