@@ -480,9 +480,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   }
   // Side grasps closing below a tall object's centre of mass, grasps whose fingertips stop
   // short of a lying round object's axis, narrow grasps across one seen face and grasps closing
-  // on the near limit's cut rank after
-  // every other candidate (kept: with nothing else they are still a grasp), flagged drop_risk so
-  // that the table's object choice sees it too.
+  // on the near limit's cut rank after every other candidate (kept: with nothing else they are
+  // still a grasp), flagged drop_risk so that the table's object choice sees it too.
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
   HoldCheckParams rules;  // the same rules the hold check drops by (hold_check.h)
   rules.lying_cylinder = params_.lying_cylinder;
