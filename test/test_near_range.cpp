@@ -214,27 +214,36 @@ TEST(NearRange, AGraspClosingOnTheCutIsFlaggedNotOneBelowIt)
 {
   const GripperModel gripper = synthetic::robotiqLikeGripper();
   const ObjectView cut = cutBottleView(kMinRange);
-  EXPECT_TRUE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, xtion()));
-  EXPECT_FALSE(closesOnNearLimitCut(graspLowOnTheBody(), gripper, cut, xtion()));
+  // The cut: seen points within margin_m (5 mm) of the 0.5 m limit, none nearer than it.
+  const CloudNormal at_cut = nearLimitCut(*cut.cloud, xtion());
+  EXPECT_GE(at_cut.size(), 5u);
+  for (const auto& p : at_cut.points)
+  {
+    const float depth = (p.getVector3fMap() - kCamera.cast<float>()).dot(opticalAxis());
+    EXPECT_LE(depth, static_cast<float>(kMinRange + 0.005) + 1e-6f);
+    EXPECT_GE(depth, static_cast<float>(kMinRange) - 0.003f);  // the renderer drops nearer points
+  }
+  EXPECT_TRUE(closesOnNearLimitCut(pinchOnTheCut(), gripper, nearLimitCut(*cut.cloud, xtion()), xtion()));
+  EXPECT_FALSE(closesOnNearLimitCut(graspLowOnTheBody(), gripper, nearLimitCut(*cut.cloud, xtion()), xtion()));
   // Off, or no range, or no camera pose on the cloud: nothing judged.
   NearRangeParams off = xtion();
   off.flag_grasps_on_cut = false;
-  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, off));
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, nearLimitCut(*cut.cloud, off), off));
   NearRangeParams unknown_camera = xtion();
   unknown_camera.sensor_min_range_m = 0.0;
-  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, cut, unknown_camera));
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, nearLimitCut(*cut.cloud, unknown_camera), unknown_camera));
   ObjectView posed_nowhere = cut;
   auto bare = std::make_shared<CloudNormal>(*cut.cloud);
   bare->sensor_origin_.setZero();
   posed_nowhere.cloud = bare;
-  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, posed_nowhere, xtion()));
+  EXPECT_FALSE(closesOnNearLimitCut(pinchOnTheCut(), gripper, nearLimitCut(*posed_nowhere.cloud, xtion()), xtion()));
   // Seen whole (a 0.3 m range): its real top is no cut, however near the 0.3 m limit is.
   const ObjectView whole = cutBottleView(0.3);
   NearRangeParams short_range = xtion();
   short_range.sensor_min_range_m = 0.3;
   GraspCandidate on_the_top = hold_check_fixtures::graspAt({ kBottleBase.x(), kBottleBase.y(), kHeight - 0.01 },
                                                            { 0, 0, -1 }, { 0, 1, 0 });
-  EXPECT_FALSE(closesOnNearLimitCut(on_the_top, gripper, whole, short_range));
+  EXPECT_FALSE(closesOnNearLimitCut(on_the_top, gripper, nearLimitCut(*whole.cloud, short_range), short_range));
 }
 
 TEST(NearRange, TheHoldCheckDropsAGraspOnTheCutTheFusedPlannerRanksItLast)

@@ -489,18 +489,20 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   rules.tall_object_min_height_m = params_.tall_object_min_height_m;
   rules.tall_side_min_height_frac = params_.tall_side_min_height_frac;
   rules.one_seen_face = params_.one_seen_face;
+  rules.near_range = params_.near_range;
+  // The cut is a line of points that thinning would halve: taken from the full view, once.
+  const CloudNormal near_limit_cut = nearLimitCut(*full_view.cloud, params_.near_range);
+  const CloudNormal no_cut;
   DropCounts demoted;
   for (auto& g : pool)
   {
-    DropRisk risk = dropRisk(g.grasp, gripper, view, extent, lying, RestingBall{}, rules);
-    // The cut is a line of points that thinning would halve: judged on the full view. Not an
-    // end-on grasp: there the cut is a lying body's near end, and the body goes on along the
-    // approach (the palm meets its true end and pushes it along its axis while the fingers
-    // close across it). Flagged, a lying wine bottle's end-on grasps that held gave way to
-    // pinches from above that closed on nothing (training piles, session 34: 7 -> 13 failures).
-    if (risk == DropRisk::None && !g.without_unseen &&
-        closesOnNearLimitCut(g.grasp, gripper, full_view, params_.near_range))
-      risk = DropRisk::OnNearLimitCut;
+    // An end-on grasp is not judged by the cut: there the cut is a lying body's near end, and
+    // the body goes on along the approach (the palm meets its true end and pushes it along its
+    // axis while the fingers close across it). Judged, a lying wine bottle's end-on grasps that
+    // held gave way to pinches from above that closed on nothing (training piles, session 34:
+    // 7 -> 13 failures).
+    const DropRisk risk =
+        dropRisk(g.grasp, gripper, view, extent, lying, RestingBall{}, g.without_unseen ? no_cut : near_limit_cut, rules);
     g.grasp.drop_risk = risk != DropRisk::None;
     demoted.add(risk);
   }

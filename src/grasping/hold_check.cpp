@@ -23,7 +23,7 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
 
 DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
                   const ObjectExtent& extent, const LyingCylinder& lying, const RestingBall& ball,
-                  const HoldCheckParams& params)
+                  const CloudNormal& near_limit_cut, const HoldCheckParams& params)
 {
   if (closesBelowCentreOfMass(grasp, extent, params.tall_object_min_height_m, params.tall_side_min_height_frac))
     return DropRisk::BelowCentreOfMass;
@@ -42,7 +42,7 @@ DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, cons
     return DropRisk::HighOnBall;
   if (closesAcrossOneSeenFace(grasp, gripper, view, params.one_seen_face))
     return DropRisk::AcrossOneSeenFace;
-  if (closesOnNearLimitCut(grasp, gripper, view, params.near_range))
+  if (closesOnNearLimitCut(grasp, gripper, near_limit_cut, params.near_range))
     return DropRisk::OnNearLimitCut;
   return DropRisk::None;
 }
@@ -95,12 +95,13 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   const LyingCylinder lying = fitLyingCylinder(view, extent, params_.lying_cylinder);
   // A lying can seen end-on is also round about a centre; its own rules judge it.
   const RestingBall ball = lying.found ? RestingBall{} : fitRestingBall(view, extent, params_.resting_ball);
+  const CloudNormal near_limit_cut = nearLimitCut(*view.cloud, params_.near_range);
   std::vector<GraspCandidate> kept;
   DropCounts dropped;
   float widest_standing_section_m = 0.0f;
   for (auto& grasp : result.grasps)
   {
-    DropRisk risk = dropRisk(grasp, gripper, view, extent, lying, ball, params_);
+    DropRisk risk = dropRisk(grasp, gripper, view, extent, lying, ball, near_limit_cut, params_);
     // A lying round object or a ball is judged by its own fit above.
     if (risk == DropRisk::None && !lying.found && !ball.found)
       if (const auto section = standingSectionMissed(grasp, gripper, view, extent, params_.standing_cylinder))

@@ -112,21 +112,27 @@ std::optional<CloudCamera> cloudCamera(const CloudNormal& cloud)
   return CloudCamera{ origin, orientation.normalized() * Eigen::Vector3f::UnitZ() };
 }
 
-bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+CloudNormal nearLimitCut(const CloudNormal& cloud, const NearRangeParams& params)
+{
+  CloudNormal cut;
+  if (!params.flag_grasps_on_cut || !(params.sensor_min_range_m > 0.0))
+    return cut;
+  const std::optional<CloudCamera> camera = cloudCamera(cloud);
+  if (!camera)
+    return cut;
+  const auto deepest = static_cast<float>(params.sensor_min_range_m + params.margin_m);
+  for (const auto& p : cloud.points)
+    if (p.getVector3fMap().allFinite() && (p.getVector3fMap() - camera->origin).dot(camera->optical_axis) <= deepest)
+      cut.push_back(p);
+  if (cut.size() < params.min_points)
+    cut.clear();
+  return cut;
+}
+
+bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const CloudNormal& cut,
                           const NearRangeParams& params)
 {
-  if (!params.flag_grasps_on_cut || !(params.sensor_min_range_m > 0.0) || !view.cloud)
-    return false;
-  const std::optional<CloudCamera> camera = cloudCamera(*view.cloud);
-  if (!camera)
-    return false;
-  const auto deepest = static_cast<float>(params.sensor_min_range_m + params.margin_m);
-  const Eigen::Isometry3f pose = grasp.pose.cast<float>();
-  std::size_t at_limit = 0;
-  for (const PointBetweenFingers& point : pointsBetweenOpenFingers(grasp, gripper, *view.cloud))
-    if ((pose * point.local - camera->origin).dot(camera->optical_axis) <= deepest && ++at_limit >= params.min_points)
-      return true;
-  return false;
+  return !cut.empty() && pointsBetweenOpenFingers(grasp, gripper, cut).size() >= params.min_points;
 }
 
 std::size_t addNearRangeBlindSpace(ObjectView& view, const NearRangeParams& params)

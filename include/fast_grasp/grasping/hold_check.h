@@ -81,10 +81,11 @@ enum class DropRisk
 };
 
 /// Judges `grasp` on `view`, whose extent, lying round object (fitLyingCylinder, with
-/// params.lying_cylinder) and resting ball (fitRestingBall, with params.resting_ball) are given.
+/// params.lying_cylinder), resting ball (fitRestingBall, with params.resting_ball) and near-limit
+/// cut (nearLimitCut, with params.near_range; empty: none) are given.
 DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
                   const ObjectExtent& extent, const LyingCylinder& lying, const RestingBall& ball,
-                  const HoldCheckParams& params);
+                  const CloudNormal& near_limit_cut, const HoldCheckParams& params);
 
 /// How many grasps each rule caught (for the planners' messages).
 struct DropCounts

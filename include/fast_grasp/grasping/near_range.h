@@ -93,11 +93,15 @@ struct CloudCamera
 };
 std::optional<CloudCamera> cloudCamera(const CloudNormal& cloud);
 
-/// Whether `grasp` closes on where `view`'s object was cut by the near limit: at least
-/// params.min_points of the seen points between its open fingers (the closing region at full
-/// opening, finger-wide) lie within margin_m of the limit. False when flag_grasps_on_cut is off,
-/// the range is 0 or the cloud carries no camera pose (cloudCamera).
-bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
+/// Where the near limit cut the object of `cloud`: its seen points within margin_m of the
+/// limit. Empty when flag_grasps_on_cut is off, the range is 0, the cloud carries no camera pose
+/// (cloudCamera) or fewer than min_points lie there (most objects: then no grasp is judged).
+CloudNormal nearLimitCut(const CloudNormal& cloud, const NearRangeParams& params);
+
+/// Whether `grasp` closes on the cut: at least params.min_points of `cut` (nearLimitCut of its
+/// view, computed once for all of a view's grasps) lie between its open fingers (the closing
+/// region at full opening, finger-wide).
+bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const CloudNormal& cut,
                           const NearRangeParams& params);
 
 /// Adds the blind space of `view`'s object to view.obstacles, which every planner's hand
