@@ -82,7 +82,7 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 timed_tests="BoundaryGrasp.ReportsComputeTimeAtTenThousandPoints:Lwr4.ShelfPickIsSolved:Jaco.IkRoundTripsThroughTheOffsetWrist"
 for test in test_core test_gripper_volume test_perception test_renderer test_arm_kinematics test_arm_collision \
     test_arm_planning test_arm_robots test_grasp_execution test_principal_axis_grasp test_cshape_grasp \
-    test_boundary_grasp test_fused_grasp test_lying_cylinder test_resting_ball test_standing_cylinder test_one_seen_face test_wide_flat_top test_unseen_part test_near_range test_table_grasps test_concavity_grasp test_grasp_offline test_callback_gate; do
+    test_boundary_grasp test_fused_grasp test_lying_cylinder test_resting_ball test_standing_cylinder test_one_seen_face test_wide_flat_top test_unseen_part test_near_range test_steep_closing_line test_table_grasps test_concavity_grasp test_grasp_offline test_callback_gate; do
   log="${ws}/logs/${test}.log"
   t0="$(date +%s)"
   timeout 1800 nice "${bin}/${test}" --gtest_filter="-${timed_tests}" --gtest_output="xml:${results}/asan-${test}.xml" \

@@ -432,6 +432,9 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
   reader.read("planners", config.planners);
   requireThesisPlanners(config.planners, "hold_check/planners");
   reader.read("tall_objects", config.tall_objects);
+  reader.readNonNegative("max_closing_tilt_rad", config.max_closing_tilt_rad);
+  if (!(config.max_closing_tilt_rad <= M_PI / 2.0))
+    throw std::runtime_error("hold_check/max_closing_tilt_rad must be in [0, pi/2] (0 = no check)");
   {
     SectionReader ball(reader.child("resting_ball"), "hold_check/resting_ball");
     ball.read("enabled", config.resting_ball.enabled);
@@ -576,6 +579,7 @@ std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, con
     }
     hold.resting_ball = config.hold_check.resting_ball;
     hold.standing_cylinder = config.hold_check.standing_cylinder;
+    hold.max_closing_tilt_rad = config.hold_check.max_closing_tilt_rad;
     return std::make_unique<HoldCheckedPlanner>(std::move(planner), hold);
   }
   if (algorithm == "fused")

@@ -21,6 +21,14 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
   return height < static_cast<float>(side_min_height_frac) * extent.height_m;
 }
 
+bool closingLineTooSteep(const GraspCandidate& grasp, const Eigen::Vector3f& up, double max_closing_tilt_rad)
+{
+  if (!(max_closing_tilt_rad > 0.0))
+    return false;
+  const float rise = std::abs(grasp.binormal().cast<float>().dot(up));
+  return std::asin(std::min(rise, 1.0f)) > static_cast<float>(max_closing_tilt_rad);
+}
+
 DropRisk dropRisk(const GraspCandidate& grasp, const GripperModel& gripper, const ObjectView& view,
                   const ObjectExtent& extent, const LyingCylinder& lying, const RestingBall& ball,
                   const CloudNormal& near_limit_cut, const HoldCheckParams& params)
@@ -66,6 +74,9 @@ void DropCounts::add(DropRisk risk)
     case DropRisk::ShortOfStandingAxis:
       ++short_of_standing_axis;
       break;
+    case DropRisk::SteepClosingLine:
+      ++steep_closing_line;
+      break;
     case DropRisk::AcrossOneSeenFace:
       ++across_one_seen_face;
       break;
@@ -88,7 +99,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
   if (!result.ok() || (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled &&
                        !params_.standing_cylinder.enabled && !params_.one_seen_face.enabled &&
                        !(params_.near_range.flag_grasps_on_cut && params_.near_range.sensor_min_range_m > 0.0) &&
-                       !(params_.tall_object_min_height_m > 0.0)))
+                       !(params_.tall_object_min_height_m > 0.0) && !(params_.max_closing_tilt_rad > 0.0)))
     return result;
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);
@@ -109,6 +120,8 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         risk = DropRisk::ShortOfStandingAxis;
         widest_standing_section_m = std::max(widest_standing_section_m, section->radius_m);
       }
+    if (risk == DropRisk::None && !ball.found && closingLineTooSteep(grasp, extent.up, params_.max_closing_tilt_rad))
+      risk = DropRisk::SteepClosingLine;
     dropped.add(risk);
     if (risk == DropRisk::None)
       kept.push_back(std::move(grasp));
@@ -140,6 +153,10 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
         << dropped.short_of_standing_axis
         << " side grasps whose fingertips stop short of its axis (the pads close on a chord near their tips and "
            "squeeze it out in physics)";
+  if (dropped.steep_closing_line > 0)
+    why << (why.tellp() > 0 ? "; " : "") << "dropped " << dropped.steep_closing_line
+        << " grasps whose closing line tilts more than " << std::lround(params_.max_closing_tilt_rad * 180.0 / M_PI)
+        << " deg from the table (the object turns out of the pads in physics)";
   if (dropped.across_one_seen_face > 0)
     why << (why.tellp() > 0 ? "; " : "") << "dropped " << dropped.across_one_seen_face
         << " narrow grasps across one seen face whose depth the camera never saw (the far finger lands inside "

@@ -58,6 +58,7 @@ struct HoldCheckConfig
   bool tall_objects = false;
   RestingBallParams resting_ball;  // hold_check/resting_ball (the hold check's own: fused ranks by its model)
   StandingCylinderParams standing_cylinder;  // hold_check/standing_cylinder (the hold check's own)
+  double max_closing_tilt_rad = 0.0;         // hold_check/max_closing_tilt_rad (0 = no check)
 };
 
 /// Reads `hold_check:`. Throws std::runtime_error on another planner name or an unknown key.
