@@ -6,7 +6,8 @@
 // fingertips stop well short of its axis; on a tall standing object (optionally) a side grasp
 // closing below its centre of mass; a narrow grasp across one seen face whose depth the camera
 // never saw (one_seen_face.h); a grasp closing where the camera's near limit cut the object
-// (near_range.h).
+// (near_range.h); on anything but a resting ball, a grasp whose closing line tilts steeply from
+// the table (closingLineTooSteep).
 // Those are dropped, and when none is left the planner says why.
 //
 // Beyond the thesis. Its planners put the closing line where they saw contacts, the top and
