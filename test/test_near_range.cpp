@@ -223,8 +223,8 @@ TEST(NearRange, AGraspClosingOnTheCutIsFlaggedNotOneBelowIt)
     EXPECT_LE(depth, static_cast<float>(kMinRange + 0.005) + 1e-6f);
     EXPECT_GE(depth, static_cast<float>(kMinRange) - 0.003f);  // the renderer drops nearer points
   }
-  EXPECT_TRUE(closesOnNearLimitCut(pinchOnTheCut(), gripper, nearLimitCut(*cut.cloud, xtion()), xtion()));
-  EXPECT_FALSE(closesOnNearLimitCut(graspLowOnTheBody(), gripper, nearLimitCut(*cut.cloud, xtion()), xtion()));
+  EXPECT_TRUE(closesOnNearLimitCut(pinchOnTheCut(), gripper, at_cut, xtion()));
+  EXPECT_FALSE(closesOnNearLimitCut(graspLowOnTheBody(), gripper, at_cut, xtion()));
   // Off, or no range, or no camera pose on the cloud: nothing judged.
   NearRangeParams off = xtion();
   off.flag_grasps_on_cut = false;

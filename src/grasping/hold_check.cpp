@@ -21,6 +21,13 @@ bool closesBelowCentreOfMass(const GraspCandidate& grasp, const ObjectExtent& ex
   return height < static_cast<float>(side_min_height_frac) * extent.height_m;
 }
 
+bool HoldCheckParams::anyRuleOn() const
+{
+  return lying_cylinder.enabled || resting_ball.enabled || standing_cylinder.enabled || one_seen_face.enabled ||
+         (near_range.flag_grasps_on_cut && near_range.sensor_min_range_m > 0.0) || tall_object_min_height_m > 0.0 ||
+         max_closing_tilt_rad > 0.0;
+}
+
 bool closingLineTooSteep(const GraspCandidate& grasp, const Eigen::Vector3f& up, double max_closing_tilt_rad)
 {
   if (!(max_closing_tilt_rad > 0.0))
@@ -96,10 +103,7 @@ HoldCheckedPlanner::HoldCheckedPlanner(std::unique_ptr<GraspPlanner> planner, Ho
 GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel& gripper) const
 {
   GraspResult result = planner_->plan(view, gripper);
-  if (!result.ok() || (!params_.lying_cylinder.enabled && !params_.resting_ball.enabled &&
-                       !params_.standing_cylinder.enabled && !params_.one_seen_face.enabled &&
-                       !(params_.near_range.flag_grasps_on_cut && params_.near_range.sensor_min_range_m > 0.0) &&
-                       !(params_.tall_object_min_height_m > 0.0) && !(params_.max_closing_tilt_rad > 0.0)))
+  if (!result.ok() || !params_.anyRuleOn())
     return result;
   const Stopwatch watch;
   const ObjectExtent extent = objectExtent(view);

@@ -60,6 +60,9 @@ struct HoldCheckParams
   /// A grasp whose closing line tilts more than this from the table plane, on an object that is
   /// not a ball resting on the table (closingLineTooSteep; 0 = no check).
   double max_closing_tilt_rad = 0.0;
+
+  /// Whether any rule above can drop a grasp (none: the hold check passes results through).
+  bool anyRuleOn() const;
 };
 
 /// Whether `grasp` closes along a line tilted more than `max_closing_tilt_rad` (> 0) from the
