@@ -63,7 +63,7 @@ SPLIT_CHOICES = ["train", "heldout", "heldout_extra"]
 FIELDS = ["split", "object", "class", "pose", "view", "planner", "rank", "gripper", "friction", "status", "message",
           "planning_ms", "success", "unexpected_contact", "contact_phase", "failure_phase", "table_contact",
           "object_rise_m", "unstable", "grasp_x", "grasp_y", "grasp_z", "approach_x", "approach_y", "approach_z",
-          "binormal_x", "binormal_y", "binormal_z", "width_m", "score",
+          "binormal_x", "binormal_y", "binormal_z", "width_m", "score", "drop_risk",
           # the settled object's pose in base_link (mesh frame -> world), for offline geometry
           "object_x", "object_y", "object_z", "object_qw", "object_qx", "object_qy", "object_qz"]
 
@@ -206,7 +206,8 @@ def grasps_from_report(report):
     for g in report.get("grasps", []):
         rotation = np.stack([np.asarray(g["approach"]), np.asarray(g["binormal"]), np.asarray(g["axis"])], axis=1)
         out.append({"position": g["position"], "rotation": rotation, "width_m": g["width_m"], "score": g["score"],
-                    "source": g.get("algorithm", ""), "features": g.get("features", {})})
+                    "source": g.get("algorithm", ""), "features": g.get("features", {}),
+                    "drop_risk": bool(g.get("drop_risk", False))})
     return out
 
 
@@ -266,7 +267,7 @@ def evaluate_scene(job):
                                   None if saved else object_pcd)
                     saved = saved or os.path.exists(object_pcd)
                     grasps = grasps_from_report(report)
-                    row.update(status=report.get("status", "?"), message=report.get("message", "")[:200],
+                    row.update(status=report.get("status", "?"), message=report.get("message", "")[:600],
                                planning_ms=1000 * (report.get("compute_time_s") or 0.0))
                 if not grasps:
                     rows.append(row)
@@ -277,7 +278,8 @@ def evaluate_scene(job):
                     trial_row.update(grasp_x=grasp["position"][0], grasp_y=grasp["position"][1],
                                      grasp_z=grasp["position"][2], approach_x=r[0, 0], approach_y=r[1, 0],
                                      approach_z=r[2, 0], binormal_x=r[0, 1], binormal_y=r[1, 1], binormal_z=r[2, 1],
-                                     width_m=grasp["width_m"], score=grasp["score"], source=grasp.get("source", ""))
+                                     width_m=grasp["width_m"], score=grasp["score"], source=grasp.get("source", ""),
+                                     drop_risk=grasp.get("drop_risk", False))
                     trial_row.update({"f_" + k: v for k, v in grasp.get("features", {}).items()})
                     rows.append(trial_row)
     return rows

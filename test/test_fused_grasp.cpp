@@ -267,11 +267,13 @@ namespace
 /// The fused planner over one fixed grasp per pooled planner, in this order, with no
 /// candidates of its own and every point seen: the lying-object rules alone reorder them.
 GraspResult planPooledOnLyingObject(const ObjectView& view, const GripperModel& gripper,
-                                    const std::vector<GraspCandidate>& grasps, const LyingCylinderParams& lying)
+                                    const std::vector<GraspCandidate>& grasps, const LyingCylinderParams& lying,
+                                    bool return_drop_risk_grasps = true)
 {
   FusedParams p = noCandidatesOfItsOwn();
   p.max_pooled_points = 0;
   p.lying_cylinder = lying;
+  p.return_drop_risk_grasps = return_drop_risk_grasps;
   std::vector<std::unique_ptr<GraspPlanner>> planners;
   for (const GraspCandidate& grasp : grasps)
     planners.push_back(std::make_unique<FixedGraspPlanner>(grasp));
@@ -376,6 +378,47 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
   for (const char* bad : { "{lying_cylinder: {min_fingertip_reach_m: 0.5}}", "{lying_cylinder: {max_median_residual_frac: 0}}",
                            "{lying_cylinder: {no_such_key: 1}}", "{lying_cylinder: {min_points: 1}}" })
     EXPECT_THROW(fusedParamsFromYaml(YAML::Load(bad)), std::runtime_error) << bad;
+}
+
+TEST(FusedGrasp, GraspsWithADropRiskAreNotReturnedWhenConfiguredSo)
+{
+  // The can and the two grasps of the test above: the oblique one stops 8 mm short of the axis
+  // (a drop risk), the one from above passes it. With return_drop_risk_grasps false the short
+  // one is never returned; proposed alone, it leaves no grasp, and the answer says why.
+  const ObjectView view = lyingCanView(0.034, 0.10, 0.003);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const double tilt = 35.0 * M_PI / 180.0;
+  const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
+  GraspCandidate oblique;
+  oblique.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.034) - (0.008 + 0.02) * approach, approach,
+                               Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt)));
+  oblique.width_m = 0.068;
+  GraspCandidate from_above;
+  from_above.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  from_above.width_m = 0.068;
+  LyingCylinderParams lying;
+  lying.enabled = true;
+
+  const GraspResult both = planPooledOnLyingObject(view, gripper, { oblique, from_above }, lying, false);
+  ASSERT_TRUE(both.ok()) << both.message;
+  ASSERT_EQ(both.grasps.size(), 1u);
+  EXPECT_NEAR(both.grasps.front().approach().z(), -1.0, 1e-9);
+  EXPECT_NE(both.message.find("fingertips short of its axis, not returned: 1"), std::string::npos) << both.message;
+
+  const GraspResult alone = planPooledOnLyingObject(view, gripper, { oblique }, lying, false);
+  EXPECT_FALSE(alone.ok());
+  EXPECT_EQ(alone.failure, GraspFailure::NoStableGrasp);
+  EXPECT_NE(alone.message.find("fingertips short of its axis, not returned: 1"), std::string::npos) << alone.message;
+  // ... while the default keeps it as a last resort.
+  const GraspResult kept = planPooledOnLyingObject(view, gripper, { oblique }, lying);
+  ASSERT_TRUE(kept.ok()) << kept.message;
+  EXPECT_TRUE(kept.grasps.front().drop_risk);
+
+  EXPECT_FALSE(fusedParamsFromYaml(YAML::Load("{return_drop_risk_grasps: false}")).return_drop_risk_grasps);
+  EXPECT_EQ(fusedParamsFromYaml(YAML::Load("{finger_graze_penalty: 0.2}")).finger_graze_penalty, 0.2);
+  EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{finger_graze_penalty: 2}")), std::runtime_error);
+  EXPECT_EQ(fusedParamsFromYaml(YAML::Load("{gripper_fit: {finger_graze_margin_m: 0.003}}")).gripper_fit.finger_graze_margin_m,
+            0.003);
 }
 
 TEST(FusedGrasp, GraspsWhoseOpenHandLandsOnALyingCansHiddenSideRankLast)
@@ -799,6 +842,54 @@ TEST(FusedGrasp, YamlModelNamesFeatures)
   EXPECT_EQ(p.model.bias, 0.5);
   EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{model: {weights: {no_such_feature: 1.0}}}")), std::runtime_error);
   EXPECT_THROW(fusedParamsFromYaml(YAML::Load("{planners: [fused]}")), std::runtime_error);
+}
+
+TEST(FusedGrasp, AGraspWhoseOpenFingerGrazesTheObjectRanksLower)
+{
+  // Two top-down grasps across the box's 6 cm side (y in +-0.03), equal in the model's eyes
+  // (all weights 0), the first 1 cm off centre: its -y finger's inner face (0.0425 from the
+  // hand's centre, the 85 mm opening) is then 2.5 mm from the box's -y face, the centred
+  // one's 12.5 mm. With a 4 mm graze margin and a penalty the off-centre grasp is returned
+  // second; it is not dropped. Without either the pool's order stands.
+  const ObjectView view = boxView();
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  GraspCandidate off_centre;
+  off_centre.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.01, 0.065), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, 1, 0));
+  off_centre.width_m = 0.06;
+  GraspCandidate centred = off_centre;
+  centred.pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.065);
+
+  const auto plan = [&](double graze_margin_m, double penalty) {
+    FusedParams p = noCandidatesOfItsOwn();
+    p.deepen_pooled_max_m = 0.0;
+    p.max_pooled_points = 0;
+    p.model.weights.assign(graspFeatureNames().size(), 0.0);
+    p.gripper_fit.finger_graze_margin_m = graze_margin_m;
+    p.finger_graze_penalty = penalty;
+    std::vector<std::unique_ptr<GraspPlanner>> planners;
+    planners.push_back(std::make_unique<FixedGraspPlanner>(off_centre));
+    planners.push_back(std::make_unique<FixedGraspPlanner>(centred));
+    return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
+  };
+  const GraspResult plain = plan(0.0, 0.05);
+  ASSERT_TRUE(plain.ok()) << plain.message;
+  ASSERT_EQ(plain.grasps.size(), 2u);
+  EXPECT_NEAR(plain.grasps[0].position().y(), 0.01, 1e-6);
+
+  const GraspResult margin = plan(0.004, 0.05);
+  ASSERT_TRUE(margin.ok()) << margin.message;
+  ASSERT_EQ(margin.grasps.size(), 2u);
+  EXPECT_NEAR(margin.grasps[0].position().y(), 0.0, 1e-6);
+  EXPECT_NEAR(margin.grasps[1].position().y(), 0.01, 1e-6);
+  EXPECT_NE(margin.message.find("ranked 0.05 lower: 1"), std::string::npos) << margin.message;
+
+  // A margin of 2 mm leaves the 2.5 mm gap alone; without a penalty grazing changes nothing.
+  const GraspResult small = plan(0.002, 0.05);
+  ASSERT_TRUE(small.ok()) << small.message;
+  EXPECT_NEAR(small.grasps[0].position().y(), 0.01, 1e-6);
+  const GraspResult no_penalty = plan(0.004, 0.0);
+  ASSERT_TRUE(no_penalty.ok()) << no_penalty.message;
+  EXPECT_NEAR(no_penalty.grasps[0].position().y(), 0.01, 1e-6);
 }
 
 }  // namespace fast_grasp

@@ -217,3 +217,44 @@ TEST(GripperVolume, InvalidParametersAreNamed)
   EXPECT_NE(why.find("min_points_between_fingers"), std::string::npos) << why;
   EXPECT_TRUE(GripperFitParams{}.validate().empty());
 }
+
+TEST(GripperVolume, PointsJustOutsideAnOpenFingerAreCountedAsGrazingIt)
+{
+  // Lacquey open 0.13: the +Y finger's inner face at y = 0.065. A block from y = -0.02 to
+  // y = 0.062 is 3 mm inside that face: with a 4 mm graze margin its points at y >= 0.061
+  // (the 0.062 column, 1 mm from the 0.065 - 0.004 limit) graze the finger, with 2 mm none.
+  const GripperModel gripper = lacquey();
+  const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  const CloudXYZ block = solidBox({ -0.01f, -0.02f, -0.004f }, { 0.01f, 0.062f, 0.004f });
+  std::size_t near_face = 0;
+  for (const auto& p : block.points)
+    near_face += p.y >= 0.061f;
+  ASSERT_GT(near_face, 0u);
+
+  GripperFitParams params;
+  params.finger_graze_margin_m = 0.004;
+  GripperVolumeCheck check(gripper, params);
+  check.addSeen(block);
+  const GripperFit fit = check.fit(pose, 0.082);
+  ASSERT_TRUE(fit.ok) << fit.why;  // grazing is counted, not a failure
+  EXPECT_EQ(fit.points_grazing_fingers, near_face);
+
+  params.finger_graze_margin_m = 0.002;
+  GripperVolumeCheck looser(gripper, params);
+  looser.addSeen(block);
+  EXPECT_EQ(looser.fit(pose, 0.082).points_grazing_fingers, 0u);
+
+  // Unseen-part points graze too; a margin of 0 counts nothing (the default).
+  GripperVolumeCheck unseen_check(gripper, GripperFitParams{});
+  unseen_check.addSeen(solidBox({ -0.01f, -0.02f, -0.004f }, { 0.01f, 0.02f, 0.004f }));
+  unseen_check.addUnseen(block);
+  EXPECT_EQ(unseen_check.fit(pose, 0.04).points_grazing_fingers, 0u);
+  params.finger_graze_margin_m = 0.004;
+  GripperVolumeCheck unseen_grazes(gripper, params);
+  unseen_grazes.addSeen(solidBox({ -0.01f, -0.02f, -0.004f }, { 0.01f, 0.02f, 0.004f }));
+  unseen_grazes.addUnseen(block);
+  EXPECT_EQ(unseen_grazes.fit(pose, 0.04).points_grazing_fingers, near_face);
+
+  params.finger_graze_margin_m = -0.001;
+  EXPECT_NE(params.validate().find("finger_graze_margin_m"), std::string::npos);
+}

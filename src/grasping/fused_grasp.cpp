@@ -310,6 +310,8 @@ std::string FusedParams::validate() const
     why << "deepen_pooled_max_m must be in [0, 0.2] m; ";
   if (!(min_success_probability >= 0.0 && min_success_probability <= 1.0))
     why << "min_success_probability must be in [0, 1]; ";
+  if (!(finger_graze_penalty >= 0.0 && finger_graze_penalty <= 1.0))
+    why << "finger_graze_penalty must be in [0, 1]; ";
   if (!(wide_lying_body.mirror.min_elongation >= 1.0) ||
       !(wide_lying_body.mirror.max_free_fraction >= 0.0 && wide_lying_body.mirror.max_free_fraction <= 1.0) ||
       !(wide_lying_body.min_excess_over_opening_m >= -0.1 && wide_lying_body.min_excess_over_opening_m <= 0.1))
@@ -396,7 +398,8 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   {
     // Like the planners' hands, ours stay out of the seen points, the unseen part and the table
     // (end-on grasps out of the first and the last only: Generated::without_unseen).
-    const auto hand_check = [&](const GripperFitParams& fit, bool with_unseen = true) {
+    const auto hand_check = [&](GripperFitParams fit, bool with_unseen = true) {
+      fit.finger_graze_margin_m = 0.0;  // counted once, on the grasps returned (below)
       GripperVolumeCheck check(gripper, fit);
       check.addSeen(*view.cloud);
       check.addObstacles(view);  // the neighbours always: seen or not, they are there
@@ -506,16 +509,17 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
     g.grasp.drop_risk = risk != DropRisk::None;
     demoted.add(risk);
   }
+  const char* demoted_fate = params_.return_drop_risk_grasps ? "ranked last" : "not returned";
   if (demoted.below_centre_of_mass > 0)
-    summary << "below a tall object's centre of mass, ranked last: " << demoted.below_centre_of_mass << "; ";
+    summary << "below a tall object's centre of mass, " << demoted_fate << ": " << demoted.below_centre_of_mass << "; ";
   if (lying.found)
     summary << "lying round object (radius " << std::lround(1000.0f * lying.radius_m)
-            << " mm), fingertips short of its axis, ranked last: " << demoted.short_of_axis
-            << "; open hand onto its hidden side, ranked last: " << demoted.onto_hidden_side << "; ";
+            << " mm), fingertips short of its axis, " << demoted_fate << ": " << demoted.short_of_axis
+            << "; open hand onto its hidden side, " << demoted_fate << ": " << demoted.onto_hidden_side << "; ";
   if (demoted.across_one_seen_face > 0)
-    summary << "narrow across one seen face (its depth unseen), ranked last: " << demoted.across_one_seen_face << "; ";
+    summary << "narrow across one seen face (its depth unseen), " << demoted_fate << ": " << demoted.across_one_seen_face << "; ";
   if (demoted.on_near_limit_cut > 0)
-    summary << "closing where the camera's near limit cut the object, ranked last: " << demoted.on_near_limit_cut << "; ";
+    summary << "closing where the camera's near limit cut the object, " << demoted_fate << ": " << demoted.on_near_limit_cut << "; ";
   std::stable_sort(pool.begin(), pool.end(), [](const Generated& a, const Generated& b) {
     return a.grasp.drop_risk != b.grasp.drop_risk ? b.grasp.drop_risk : a.grasp.score > b.grasp.score;
   });
@@ -528,48 +532,93 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   // finger 462 samples into the box's back). So when the view was thinned, each grasp returned
   // is checked once more against the full view's points and its own unseen part (end-on
   // grasps against the points alone, as before: a copy of the check before the unseen part).
-  std::optional<GripperVolumeCheck> full_check, full_seen_only_check;
-  if (params_.gripper_fit.enabled && view.cloud != full_view.cloud)
+  // The same check counts the points that graze an open finger (gripper_fit/
+  // finger_graze_margin_m); that needs it on views that were not thinned too.
+  const bool thinned_view = view.cloud != full_view.cloud;
+  const bool count_grazing = params_.gripper_fit.finger_graze_margin_m > 0.0;
+  std::optional<GripperVolumeCheck> final_check, final_seen_only_check;
+  if (params_.gripper_fit.enabled && (thinned_view || count_grazing))
   {
-    full_check.emplace(gripper, params_.gripper_fit);
-    full_check->addSeen(*full_view.cloud);
-    full_check->addObstacles(full_view);
+    final_check.emplace(gripper, params_.gripper_fit);
+    final_check->addSeen(*full_view.cloud);
+    final_check->addObstacles(full_view);
     std::optional<Eigen::Vector4f> table;
     if (full_view.has_table_plane)
     {
       table = full_view.table_plane;
-      full_check->setTable(full_view.table_plane);
+      final_check->setTable(full_view.table_plane);
     }
     if (std::any_of(pool.begin(), pool.end(), [](const Generated& g) { return g.without_unseen; }))
-      full_seen_only_check = *full_check;  // a copy only when an end-on grasp is pooled
-    // Default grid: cells from the full view's own point spacing. (A 5 mm floor on the cell,
-    // tried for the benchmark's dense 10 k points, gave no measurable speed-up and a blockier
-    // shadow that dropped the tea box's three holding top-down grasps on the training half.)
-    const UnseenPart full_unseen = buildUnseenPart(*full_view.cloud, full_view.sensor_origins, UnseenPartParams{}, table);
-    if (full_unseen.ok())
-      full_check->addUnseen(full_unseen.points);
+      final_seen_only_check = *final_check;  // a copy only when an end-on grasp is pooled
+    if (thinned_view)
+    {
+      // Default grid: cells from the full view's own point spacing. (A 5 mm floor on the cell,
+      // tried for the benchmark's dense 10 k points, gave no measurable speed-up and a blockier
+      // shadow that dropped the tea box's three holding top-down grasps on the training half.)
+      const UnseenPart full_unseen = buildUnseenPart(*full_view.cloud, full_view.sensor_origins, UnseenPartParams{}, table);
+      if (full_unseen.ok())
+        final_check->addUnseen(full_unseen.points);
+    }
+    else
+      final_check->addUnseen(unseen);
   }
-  std::size_t dropped_at_full_resolution = 0;
+  // A grasp whose open finger would brush an obstacle point (gripper_fit/finger_graze_margin_m)
+  // ranks as if the model gave it finger_graze_penalty less, within its tier (no drop risk /
+  // drop risk); it is not dropped: brushing is a contact, not a drop (4 of the 6 training
+  // grasps that brushed the object held it). A deferred grasp is placed as soon as the next
+  // candidate scores below its penalised score, so only candidates that could still make the
+  // list are fitted, and the choice does not depend on max_grasps.
+  std::size_t dropped_at_full_resolution = 0, grazing_count = 0;
+  std::vector<GraspCandidate> deferred;  // grazing, best first
+  const auto place_deferred = [&](double down_to_score) {
+    std::size_t k = 0;
+    while (k < deferred.size() && deferred[k].score - params_.finger_graze_penalty >= down_to_score &&
+           result.grasps.size() < params_.max_grasps)
+      result.grasps.push_back(std::move(deferred[k++]));
+    deferred.erase(deferred.begin(), deferred.begin() + static_cast<std::ptrdiff_t>(k));
+  };
+  bool risk_tier = false;
   for (auto& g : pool)
   {
-    if (result.grasps.size() >= params_.max_grasps)
-      break;
     if (g.grasp.score < params_.min_success_probability)
       continue;  // (not break: demoted candidates follow, in their own score order)
-    if (full_check)
+    if (g.grasp.drop_risk && !params_.return_drop_risk_grasps)
+      break;  // the rest of the pool carries a risk too (sorted so)
+    if (g.grasp.drop_risk && !risk_tier)
     {
-      const GripperFit fitted = (g.without_unseen ? *full_seen_only_check : *full_check).fit(g.grasp.pose, g.grasp.width_m);
-      if (!fitted.ok)
+      risk_tier = true;
+      place_deferred(-std::numeric_limits<double>::infinity());
+    }
+    place_deferred(g.grasp.score);
+    if (result.grasps.size() >= params_.max_grasps)
+      break;
+    if (final_check)
+    {
+      const GripperFit fitted = (g.without_unseen ? *final_seen_only_check : *final_check).fit(g.grasp.pose, g.grasp.width_m);
+      if (thinned_view)
       {
-        ++dropped_at_full_resolution;
+        if (!fitted.ok)
+        {
+          ++dropped_at_full_resolution;
+          continue;
+        }
+        g.grasp.pose = fitted.pose;
+      }
+      if (fitted.points_grazing_fingers > 0)
+      {
+        ++grazing_count;
+        deferred.push_back(std::move(g.grasp));
         continue;
       }
-      g.grasp.pose = fitted.pose;
     }
     result.grasps.push_back(std::move(g.grasp));
   }
-  if (full_check)
+  place_deferred(-std::numeric_limits<double>::infinity());
+  if (thinned_view && final_check)
     summary << "dropped at full resolution: " << dropped_at_full_resolution << "; ";
+  if (grazing_count > 0)
+    summary << "an open finger within gripper_fit/finger_graze_margin_m of a point, ranked "
+            << params_.finger_graze_penalty << " lower: " << grazing_count << "; ";
   result.compute_time_s = watch.elapsedSeconds();
   if (result.grasps.empty())
   {

@@ -159,6 +159,7 @@ GripperFitParams gripperFitFromYaml(SectionReader& parent, const char* planner)
   reader.readNonNegative("max_table_tilt_rad", p.max_table_tilt_rad);
   reader.readNonNegative("tilt_step_rad", p.tilt_step_rad);
   reader.readNonNegative("max_advance_m", p.max_advance_m);
+  reader.readNonNegative("finger_graze_margin_m", p.finger_graze_margin_m);
   reader.rejectUnknownKeys();
   return p;
 }
@@ -335,6 +336,8 @@ FusedParams fusedParamsFromYaml(const YAML::Node& section)
   reader.readCount("max_pooled_points", p.max_pooled_points, 0);
   reader.readCount("max_grasps", p.max_grasps, 1);
   reader.readNonNegative("min_success_probability", p.min_success_probability);
+  reader.readNonNegative("finger_graze_penalty", p.finger_graze_penalty);
+  reader.read("return_drop_risk_grasps", p.return_drop_risk_grasps);
   std::map<std::string, double> pooled_max_grasps;
   reader.read("pooled_max_grasps", pooled_max_grasps);
   for (const auto& [name, count] : pooled_max_grasps)

@@ -48,6 +48,8 @@ std::string GripperFitParams::validate() const
     why << "gripper_fit/max_table_tilt_rad must be in [0, pi]; ";
   if (!(tilt_step_rad > 0.0))
     why << "gripper_fit/tilt_step_rad must be > 0; ";
+  if (!(finger_graze_margin_m >= 0.0 && finger_graze_margin_m <= 0.05))
+    why << "gripper_fit/finger_graze_margin_m must be in [0, 0.05]; ";
   if (!(max_advance_m >= 0.0 && max_advance_m <= 0.2))
     why << "gripper_fit/max_advance_m must be in [0, 0.2]; ";
   return why.str();
@@ -59,6 +61,9 @@ GripperVolumeCheck::GripperVolumeCheck(const GripperModel& gripper, GripperFitPa
   , open_boxes_(openGripperBoxes(gripper, params.approach_opening_m > 0.0 ? params.approach_opening_m
                                                                           : gripper.max_opening_m))
 {
+  const Eigen::Vector3f margin = Eigen::Vector3f::Constant(static_cast<float>(params_.finger_graze_margin_m));
+  for (std::size_t i = 0; i < graze_boxes_.size(); ++i)
+    graze_boxes_[i] = { open_boxes_[i].min - margin, open_boxes_[i].max + margin };
 }
 
 void GripperVolumeCheck::addUnseen(const CloudXYZ& cloud)
@@ -190,10 +195,13 @@ GripperFit GripperVolumeCheck::fit(const Eigen::Isometry3d& pose, double width_m
   // The whole open hand at the fitted pose, and what the closed fingers would hold.
   const GripperBox closing = closingRegionBox(gripper_, width_m, params_.closing_margin_m);
   const Eigen::Vector3f shift(backoff, 0.0f, 0.0f);
+  const bool count_grazing = params_.finger_graze_margin_m > 0.0;
   for (Eigen::Index i = 0; i < local.cols(); ++i)
   {
     const Eigen::Vector3f q = local.col(i) + shift;
     const bool in_hand = open_boxes_[0].contains(q) || open_boxes_[1].contains(q) || open_boxes_[2].contains(q);
+    if (count_grazing && !in_hand)
+      result.points_grazing_fingers += graze_boxes_[0].contains(q) || graze_boxes_[1].contains(q);
     if (i < seen_count)
     {
       result.seen_in_gripper += in_hand;

@@ -623,7 +623,8 @@ void writeJson(std::ostream& out, const Report& report)
         << ", \"score\": " << jsonNumber(g.score) << ", \"force_balance_rad\": " << jsonNumber(g.force_balance_rad)
         << ", \"xoz_offset_m\": " << jsonNumber(g.xoz_offset_m) << ", \"variance_m\": " << jsonNumber(g.variance_m)
         << ", \"torque_offset_m\": " << jsonNumber(g.torque_offset_m)
-        << ", \"gravity_offset_m\": " << jsonNumber(g.gravity_offset_m);
+        << ", \"gravity_offset_m\": " << jsonNumber(g.gravity_offset_m)
+        << ", \"drop_risk\": " << (g.drop_risk ? "true" : "false");
     if (!g.features.empty())
     {
       // the fused planner's success-model inputs, for scripts/fit_fused_model.py

@@ -107,8 +107,18 @@ struct FusedParams
   /// Grasps returned (best first) and the success probability a grasp needs to be returned.
   std::size_t max_grasps = 10;
   double min_success_probability = 0.0;
-  /// The hand check of the generated candidates (the planners' own use their sections').
+  /// The hand check of the generated candidates (the planners' own use their sections'). Its
+  /// finger_graze_margin_m is applied to the grasps returned only: one whose open finger has a
+  /// seen or unseen point that close ranks as if the model gave it finger_graze_penalty less.
+  /// Beyond the thesis: in physics such a finger brushed the object on the approach.
   GripperFitParams gripper_fit;
+  double finger_graze_penalty = 0.0;
+  /// Grasps with a drop risk (dropRisk(): below a tall object's centre of mass, short of a
+  /// lying cylinder's axis, onto its hidden side, across one seen face, on the near limit's cut)
+  /// rank after every grasp without one; true returns them there, false never (the object then
+  /// gets NoStableGrasp when no other grasp remains, saying why). Beyond the thesis: in physics
+  /// the fused planner's top grasp held 1 of 8 times when all its candidates carried a risk.
+  bool return_drop_risk_grasps = true;
   GraspSuccessModel model;
 
   /// The top-level keys of config/grasp_planners.yaml (loadGraspPlannerConfig, the nodelets).
