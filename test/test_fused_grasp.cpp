@@ -14,6 +14,7 @@
 #include <limits>
 #include <random>
 #include <set>
+#include <utility>
 
 namespace fast_grasp
 {
@@ -279,6 +280,23 @@ GraspResult planPooledOnLyingObject(const ObjectView& view, const GripperModel& 
     planners.push_back(std::make_unique<FixedGraspPlanner>(grasp));
   return FusedGraspPlanner(std::move(planners), p).plan(view, gripper);
 }
+/// On lyingCanView(0.034, 0.10, ...): a grasp closing across the can 35 deg from vertical from
+/// the camera's side, its fingertips 8 mm short of the axis, and one from above whose fingertips
+/// pass the axis by 4 mm.
+constexpr double kShortGraspTiltRad = 35.0 * M_PI / 180.0;
+std::pair<GraspCandidate, GraspCandidate> shortAndPassingGraspsOnTheLyingCan()
+{
+  const double tilt = kShortGraspTiltRad;
+  const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
+  GraspCandidate oblique;
+  oblique.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.034) - (0.008 + 0.02) * approach, approach,
+                               Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt)));
+  oblique.width_m = 0.068;
+  GraspCandidate from_above;
+  from_above.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
+  from_above.width_m = 0.068;
+  return { oblique, from_above };
+}
 }  // namespace
 
 TEST(FusedGrasp, PooledGraspsAreAlsoOfferedDeeperSoTheFingertipsPassTheEquator)
@@ -336,15 +354,10 @@ TEST(FusedGrasp, GraspsWhoseFingertipsStopShortOfALyingCansAxisRankLast)
   // squeezes out); the second from above with its fingertips at 3 cm, 4 mm past the axis.
   const ObjectView view = lyingCanView(0.034, 0.10, 0.003);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
-  const double tilt = 35.0 * M_PI / 180.0;
-  const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
-  GraspCandidate oblique;
-  oblique.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.034) - (0.008 + 0.02) * approach, approach,
-                               Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt)));
-  oblique.width_m = 0.068;
-  GraspCandidate from_above;
-  from_above.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
-  from_above.width_m = 0.068;
+  const double tilt = kShortGraspTiltRad;
+  const auto grasps = shortAndPassingGraspsOnTheLyingCan();  // (no structured binding: lambdas capture these)
+  const GraspCandidate& oblique = grasps.first;
+  const GraspCandidate& from_above = grasps.second;
 
   const auto plan = [&](bool lying_cylinder) {
     LyingCylinderParams lying;
@@ -387,15 +400,9 @@ TEST(FusedGrasp, GraspsWithADropRiskAreNotReturnedWhenConfiguredSo)
   // one is never returned; proposed alone, it leaves no grasp, and the answer says why.
   const ObjectView view = lyingCanView(0.034, 0.10, 0.003);
   const GripperModel gripper = synthetic::robotiqLikeGripper();
-  const double tilt = 35.0 * M_PI / 180.0;
-  const Eigen::Vector3d approach(std::sin(tilt), 0.0, -std::cos(tilt));
-  GraspCandidate oblique;
-  oblique.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.034) - (0.008 + 0.02) * approach, approach,
-                               Eigen::Vector3d(std::cos(tilt), 0.0, std::sin(tilt)));
-  oblique.width_m = 0.068;
-  GraspCandidate from_above;
-  from_above.pose = makeGraspPose(Eigen::Vector3d(0.0, 0.0, 0.05), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0));
-  from_above.width_m = 0.068;
+  const auto grasps = shortAndPassingGraspsOnTheLyingCan();  // (no structured binding: lambdas capture these)
+  const GraspCandidate& oblique = grasps.first;
+  const GraspCandidate& from_above = grasps.second;
   LyingCylinderParams lying;
   lying.enabled = true;
 
