@@ -564,7 +564,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
   }
   // A grasp whose open finger would brush an obstacle point (gripper_fit/finger_graze_margin_m)
   // ranks as if the model gave it finger_graze_penalty less, within its tier (no drop risk /
-  // drop risk); it is not dropped: brushing is a contact, not a drop (4 of the 6 training
+  // drop risk); it is not dropped: brushing is a contact, not a drop (5 of the 6 training
   // grasps that brushed the object held it). A deferred grasp is placed as soon as the next
   // candidate scores below its penalised score, so only candidates that could still make the
   // list are fitted, and the choice does not depend on max_grasps.

@@ -110,7 +110,8 @@ struct FusedParams
   /// The hand check of the generated candidates (the planners' own use their sections'). Its
   /// finger_graze_margin_m is applied to the grasps returned only: one whose open finger has a
   /// seen or unseen point that close ranks as if the model gave it finger_graze_penalty less.
-  /// Beyond the thesis: in physics such a finger brushed the object on the approach.
+  /// Beyond the thesis: in physics such a finger brushed the object on the approach. Off in the
+  /// shipped config (margin 0): it traded lifts for fewer touches (docs/evaluation.md).
   GripperFitParams gripper_fit;
   double finger_graze_penalty = 0.0;
   /// Grasps with a drop risk (dropRisk(): below a tall object's centre of mass, short of a

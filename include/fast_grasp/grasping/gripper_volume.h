@@ -86,9 +86,9 @@ struct GripperFitParams
   double max_advance_m = 0.0;
   /// Obstacle points outside the open fingers but within this of them (any face) are counted
   /// in GripperFit::points_grazing_fingers; they do not fail the fit. 0 = not counted. The
-  /// fused planner ranks a grasp with such points after those without: in physics the hand
-  /// brushed the object with one finger on the approach in 6 of 228 training trials, all
-  /// grasps whose exact-box check had passed (sensor noise, the unseen part's guess).
+  /// fused planner can rank a grasp with such points lower (fused/finger_graze_penalty): in
+  /// physics the hand brushed the object with one finger on the approach in 6 of 228 training
+  /// trials, all grasps whose exact-box check had passed (sensor noise, the unseen part's guess).
   double finger_graze_margin_m = 0.0;
 
   std::string validate() const;
