@@ -43,8 +43,8 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 import evaluate_grasps_physics as single  # noqa: E402  (camera, planning and report helpers)
 
-FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "status",
-          "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object",
+FIELDS = ["planner", "gripper", "arrangement", "table", "attempt", "objects_placed", "objects_left", "views",
+          "status", "message", "planning_ms", "target_cluster_objects", "target_cluster_names", "success", "grasped_object",
           "closed_on", "touched_first", "failure_phase", "unexpected_contact",
           "contact_phase", "table_contact", "lifted_together", "unstable", "rolled_away", "grasp_x", "grasp_y",
           "grasp_z", "approach_x", "approach_y", "approach_z", "width_m", "score", "source"]
@@ -96,7 +96,13 @@ def parse_args(argv):
                    help="also simulate the grasps ranked 2..N of every attempt, each from the same table state, "
                         "into pool.csv with their features (training data for scripts/fit_fused_model.py); the "
                         "clearance itself goes on with the top grasp as always")
+    p.add_argument("--follow-next-view", type=int, default=0,
+                   help="passed to grasp_offline: when no object has a grasp, render again from the planner's "
+                        "next view (the camera turned about the table, table_grasps/next_view_turn_rad) up to N "
+                        "times before the table ends on 'no grasp' (0: the VGN/GIGA protocol's one view)")
     args = p.parse_args(argv)
+    if args.follow_next_view < 0:
+        p.error("--follow-next-view N with N >= 0")
     if args.pool < 1:
         p.error("--pool N with N >= 1")
     lo, _, hi = args.objects_per_table.partition(",")
@@ -111,8 +117,7 @@ def parse_args(argv):
     if not args.arrangement_list or set(args.arrangement_list) - {"packed", "piled"}:
         p.error("--arrangements: packed, piled or packed,piled")
     args.planner_list = [x for x in args.planners.split(",") if x]
-    # what evaluate_grasps_physics.plan reads (--max-grasps is args.pool)
-    args.follow_next_view = 0
+    # evaluate_grasps_physics.plan reads args.follow_next_view too (--max-grasps is args.pool)
     return args
 
 
@@ -230,7 +235,8 @@ def clear_table(job):
                                  cluster_pcd)
             grasps = single.grasps_from_report(report)
             in_cluster = objects_in_cluster(cluster_pcd, scene, poses, names)
-            row = dict(base, attempt=attempt, objects_left=len(objs), status=report.get("status", "?"),
+            row = dict(base, attempt=attempt, objects_left=len(objs), views=max(1, len(report.get("views") or [])),
+                       status=report.get("status", "?"),
                        message=report.get("message", "")[:200],
                        planning_ms=1000 * (report.get("compute_time_s") or 0.0),
                        target_cluster_objects=len(in_cluster), target_cluster_names=" ".join(in_cluster))
@@ -322,8 +328,10 @@ def interval_over_tables(tables, numerator, denominator, resamples=2000, seed=0)
     return float(np.percentile(rates, 2.5)), float(np.percentile(rates, 97.5))
 
 
-def summarise(tables, rows, planners, arrangements, gripper_name):
+def summarise(tables, rows, planners, arrangements, gripper_name, follow_next_view=0):
     lines, table_md = [], []
+    # the protocol plans from one view a call; following the table's next view is labelled apart
+    views = "-within-%d-views" % (1 + follow_next_view) if follow_next_view else ""
     for planner in planners:
         for arrangement in arrangements:
             t = [x for x in tables if x["planner"] == planner and x["arrangement"] == arrangement]
@@ -348,8 +356,8 @@ def summarise(tables, rows, planners, arrangements, gripper_name):
                 cleared_pct, cleared_lo, cleared_hi,
                 single_object, merged, len(calls),
                 ", ".join("%s %d" % kv for kv in sorted(ends.items()))))
-            lines.append("%s %s clutter-%s: success %.0f %% cleared %.0f %%"
-                         % (planner, gripper_name, arrangement, success_pct, cleared_pct))
+            lines.append("%s %s clutter-%s%s: success %.0f %% cleared %.0f %%"
+                         % (planner, gripper_name, arrangement, views, success_pct, cleared_pct))
     return table_md, lines
 
 
@@ -387,12 +395,15 @@ def main(argv):
         w = csv.DictWriter(f, fieldnames=TABLE_FIELDS, extrasaction="ignore")
         w.writeheader()
         w.writerows(tables)
-    table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"])
+    table_md, lines = summarise(tables, rows, args.planner_list, args.arrangement_list, gripper["name"],
+                                args.follow_next_view)
     header = ("# clutter clearance: %s, friction %.2f, %d tables per arrangement, %d-%d objects per table from %d "
               "%s objects that fit, seed %d%s, %.0f s"
               % (single.gripper_lib.finger_reach_note(gripper), args.friction, args.tables, args.min_objects,
                  args.max_objects, len(candidates), "training" if args.split == "train" else "HELD-OUT", args.seed,
-                 ", split touching objects" if args.split_touching_objects else "", time.time() - t0))
+                 (", split touching objects" if args.split_touching_objects else "") +
+                 (", up to %d more views when no object has a grasp" % args.follow_next_view
+                  if args.follow_next_view else ""), time.time() - t0))
     out = [header,
            "# " + (ALL_OBJECTS_NOTE if args.all_objects else BASELINE_NOTE) +
            ("; touching objects cut apart at concave creases" if args.split_touching_objects

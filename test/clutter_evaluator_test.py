@@ -138,6 +138,19 @@ class ClutterTest(unittest.TestCase):
         nan = clutter_eval.interval_over_tables([], "successes", "attempts")
         self.assertTrue(all(v != v for v in nan))
 
+    def test_the_summary_line_names_the_views_a_planning_call_may_take(self):
+        import evaluate_clutter_physics as clutter_eval
+        # One table of 3 objects, 2 attempts, 1 success: 50 % success, 33 % cleared. The issue's
+        # protocol plans from one view; following the table's next view is labelled apart.
+        tables = [{"planner": "fused", "arrangement": "packed", "attempts": 2, "successes": 1, "objects_placed": 3,
+                   "cleared": 1, "end": "no grasp"}]
+        rows = [{"planner": "fused", "arrangement": "packed", "target_cluster_objects": 1}]
+        for views, label in ((0, "clutter-packed"), (1, "clutter-packed-within-2-views")):
+            _, lines = clutter_eval.summarise(tables, rows, ["fused"], ["packed"], "robotiq_2f85", views)
+            self.assertEqual(lines, ["fused robotiq_2f85 %s: success 50 %% cleared 33 %%" % label])
+        with self.assertRaises(SystemExit):
+            clutter_eval.parse_args(["--follow-next-view", "-1"])
+
     def test_fixed_packed_table_cleared_twice_the_same(self):
         def run(out_dir, extra=("--tables", "1")):
             cmd = [sys.executable, os.path.join(ROOT, "scripts/evaluate_clutter_physics.py"), "--planners", "fused",

@@ -9,6 +9,11 @@ there and plans again, as an eye-in-hand robot would after moving its camera. Th
 second view must pass the pipeline rostest's checks (test/grasp_checks.py) against the object
 that view saw. Needs the YCB meshes (scripts/fetch_ycb.sh, run by scripts/install_deps.sh).
 
+Beyond the thesis, the table's next view (--all-objects, table_grasps.h tableNextView): when no
+object on a table has a grasp, the camera turned about the table toward the arm base, on a flat
+tray (never a grasp: the geometry of the turn) and on test/scenes/table_look_again.yaml (a grasp
+on the bar from the turned camera).
+
     /usr/bin/python3 test/next_view_scenes_test.py --grasp-offline .ws/devel/lib/fast_grasp/grasp_offline
 """
 import json
@@ -130,6 +135,71 @@ class NextViewScenesTest(unittest.TestCase):
                              capture_output=True, text=True)
         self.assertEqual(run.returncode, 1, run.stderr)
         self.assertIn("InputError", run.stderr)
+
+    def test_a_table_without_a_grasp_is_looked_at_again_turned_about_the_table(self):
+        # Beyond the thesis (table_grasps.h tableNextView): a tray 30 x 24 x 2 cm lying flat
+        # is wider than the 85 mm opening every way and too low to close across its height, so
+        # no object on the table has a grasp from any side. The camera, 30 deg off the line from
+        # the tray to the arm base, is turned next_view_turn_rad about the vertical through the
+        # objects' centre, toward the base: same height, same distance, looking at them.
+        scene = os.path.join(self.tmp.name, "tray.yaml")
+        with open(scene, "w") as f:
+            f.write("name: tray\nseed: 3\nframes: 1\ncompression: none\n"
+                    "table: {size_m: [1.2, 0.8, 0.04], centre_xy_m: [0.55, 0.0], top_z_m: 0.0, rgb: [150, 110, 75]}\n"
+                    "objects:\n  - name: tray\n    target: true\n    xy_m: [0.5, 0.0]\n    yaw_rad: 0.3\n"
+                    "    parts:\n      - {shape: box, size_m: [0.30, 0.24, 0.02], rgb: [40, 120, 200]}\n"
+                    "cameras:\n  - {prefix: camera, eye_m: [%.5f, %.5f, 0.45], target_m: [0.5, 0.0, 0.01]}\n"
+                    % (0.5 - 0.4 * np.cos(np.radians(30)), -0.4 * np.sin(np.radians(30))))
+        with open(PARAMS) as f:
+            turn = yaml.safe_load(f)["table_grasps"]["next_view_turn_rad"]
+        args = [GRASP_OFFLINE, "--scene", scene, "--all-objects", "--gripper", "robotiq_2f85", "--algorithm", "fused",
+                "--format", "json", "--params", PARAMS]
+        one = json.loads(subprocess.run(args, capture_output=True, text=True).stdout)
+        self.assertEqual(one["status"], "NoStableGrasp", one.get("message"))
+        self.assertEqual(len(one["views"]), 1)
+        self.assertEqual(len(one["objects"]), 1, one["objects"])
+        first = np.array(one["views"][0]["camera"]["position"])
+        second = np.array(one["next_view"]["position"])
+        centre = np.array(one["objects"][0]["centroid"])  # the one object's seen points
+        self.assertAlmostEqual(second[2], first[2], delta=1e-4)
+        before, after = first[:2] - centre[:2], second[:2] - centre[:2]
+        self.assertAlmostEqual(np.linalg.norm(after), np.linalg.norm(before), delta=1e-4)
+        self.assertAlmostEqual(np.arccos(before @ after / np.linalg.norm(before) / np.linalg.norm(after)), turn,
+                               delta=1e-3)
+        # toward the base: nearer the origin than the same turn the other way
+        turns = [np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) @ before for a in (turn, -turn)]
+        other_way = max(turns, key=lambda t: np.linalg.norm(t - after)) + centre[:2]
+        self.assertLess(np.linalg.norm(second[:2]), np.linalg.norm(other_way) - 0.01, "turned toward the arm base")
+        x, y, z, w = one["next_view"]["quaternion_xyzw"]
+        optical_z = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+        self.assertGreater(float(optical_z @ (centre - second) / np.linalg.norm(centre - second)), 0.9999)
+        # Followed: the second view is rendered from there, fails too, and suggests a further one.
+        two = json.loads(subprocess.run(args + ["--follow-next-view", "1"], capture_output=True, text=True).stdout)
+        self.assertEqual(two["status"], "NoStableGrasp", two.get("message"))
+        self.assertTrue(two["message"].startswith("after 2 views:"), two["message"])
+        self.assertEqual([v["status"] for v in two["views"]], ["NoStableGrasp", "NoStableGrasp"])
+        self.assertLess(np.linalg.norm(np.array(two["views"][1]["camera"]["position"]) - second), 1e-4)
+        self.assertIsNotNone(two["next_view"])
+    def test_a_packed_table_is_grasped_from_the_table_next_view(self):
+        # test/scenes/table_look_again.yaml: no object has a grasp from the scene's camera; from
+        # the turned camera the bar lying against the tea box has one, across the bar (2.2 cm)
+        # and on its axis (independent of the planner: the scene's bar pose).
+        args = [GRASP_OFFLINE, "--scene", os.path.join(HERE, "scenes", "table_look_again.yaml"), "--all-objects",
+                "--gripper", "robotiq_2f85", "--algorithm", "fused", "--format", "json", "--params", PARAMS]
+        one = json.loads(subprocess.run(args, capture_output=True, text=True).stdout)
+        self.assertEqual(one["status"], "NoStableGrasp", one.get("message"))
+        two = json.loads(subprocess.run(args + ["--follow-next-view", "1"], capture_output=True, text=True).stdout)
+        self.assertEqual(two["status"], "ok", two.get("message"))
+        self.assertEqual([v["status"] for v in two["views"]], ["NoStableGrasp", "ok"])
+        self.assertLess(np.linalg.norm(np.array(two["views"][1]["camera"]["position"]) -
+                                       np.array(one["next_view"]["position"])), 1e-4)
+        grasp = two["grasps"][0]
+        bar_centre, bar_yaw = np.array([0.613425, 0.045723]), np.radians(115.099)
+        along = np.array([np.cos(bar_yaw), np.sin(bar_yaw)])
+        offset = np.array(grasp["position"][:2]) - bar_centre
+        self.assertLess(abs(offset @ along), 0.11 - 0.011, "beyond the bar's ends")
+        self.assertLess(np.linalg.norm(offset - (offset @ along) * along), 0.01, "off the bar's axis")
+        self.assertAlmostEqual(grasp["width_m"], 0.022, delta=0.01)
 
 
 if __name__ == "__main__":

@@ -20,14 +20,15 @@ namespace
 {
 const Eigen::Vector3d kCamera(-0.35, 0.0, 0.45);
 
-/// The points of one rendered table scene with y_lo <= y < y_hi, as an object view.
-ObjectView objectBetween(const CloudNormal::ConstPtr& scene, double y_lo, double y_hi)
+/// The points of one rendered table scene with y_lo <= y < y_hi, as an object view seen from `camera`.
+ObjectView objectBetween(const CloudNormal::ConstPtr& scene, double y_lo, double y_hi,
+                         const Eigen::Vector3d& camera = kCamera)
 {
   CloudNormal::Ptr part(new CloudNormal);
   for (const auto& p : scene->points)
     if (p.y >= y_lo && p.y < y_hi)
       part->push_back(p);
-  ObjectView view = synthetic::makeObjectView(part, kCamera);
+  ObjectView view = synthetic::makeObjectView(part, camera);
   view.has_table_plane = true;
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
   return view;
@@ -355,4 +356,76 @@ TEST(TableGrasps, AViewsOwnBlindSpaceBlocksTheWayInAndStaysWithTheNeighbours)
   ASSERT_EQ(a.result.grasps.size(), 1u);
   EXPECT_NEAR(a.result.grasps.front().approach().x(), 1.0, 1e-9);
 }
+}  // namespace fast_grasp
+
+namespace fast_grasp
+{
+TEST(TableGrasps, NoObjectWithAGraspSuggestsTheCameraTurnedAboutTheTableTowardTheBase)
+{
+  // Two 4 x 4 x 8 cm boxes 6 cm apart about (0.5, 0, 0.04) m; the robot base at the origin. The
+  // camera stands 35 cm from them horizontally at an azimuth of 30 deg off the line from the
+  // boxes to the base, 45 cm up. Turned 30 deg about the table's normal one way it looks from
+  // straight between the boxes and the base (the nearest place to the base at that distance);
+  // the other way it would look from 60 deg off. Height and distance stay the same, and it looks
+  // at the objects' centre, its image upright.
+  const double azimuth = 30.0 * M_PI / 180.0, turn = 30.0 * M_PI / 180.0, radius = 0.35;
+  const Eigen::Vector3d box_centre(0.5, 0.0, 0.04);
+  const Eigen::Vector3d camera = box_centre + Eigen::Vector3d(-radius * std::cos(azimuth), -radius * std::sin(azimuth), 0.41);
+  const auto scene = synthetic::renderView({ synthetic::makeBox({ 0.5, -0.05, 0.04 }, { 0.04, 0.04, 0.08 }),
+                                             synthetic::makeBox({ 0.5, 0.05, 0.04 }, { 0.04, 0.04, 0.08 }) },
+                                           { camera, 0.002, 0.0, 1 });
+  constexpr double kFar = 1e3;
+  const std::vector<ObjectView> views{ objectBetween(scene, -kFar, 0.0, camera), objectBetween(scene, 0.0, kFar, camera) };
+  ASSERT_GT(views[0].cloud->size(), 100u);
+  ASSERT_GT(views[1].cloud->size(), 100u);
+  const GripperModel gripper = synthetic::robotiqLikeGripper();
+  const StubPlanner none([](const ObjectView&) { return std::vector<GraspCandidate>{}; });
+  TableGraspParams params;
+  params.next_view_turn_rad = turn;
+  const TableGraspResult table = planTableGrasps(views, none, gripper, params);
+  ASSERT_FALSE(table.ok());
+  ASSERT_TRUE(table.next_view.has_value());
+
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  std::size_t count = 0;
+  for (const ObjectView& view : views)
+    for (const auto& p : view.cloud->points)
+    {
+      centre += p.getVector3fMap().cast<double>();
+      ++count;
+    }
+  centre /= static_cast<double>(count);
+  const Eigen::Vector3d eye = table.next_view->translation();
+  const Eigen::Vector2d before = (camera - centre).head<2>(), after = (eye - centre).head<2>();
+  EXPECT_NEAR(eye.z(), camera.z(), 1e-6);
+  EXPECT_NEAR(after.norm(), before.norm(), 1e-6);
+  EXPECT_NEAR(std::acos(before.normalized().dot(after.normalized())), turn, 1e-6);
+  // toward the base: the offset now points from the boxes at the base (within the 1-2 mm the
+  // seen centre lies off the boxes' centre line)
+  const Eigen::Vector2d to_base = (-centre).head<2>().normalized();
+  EXPECT_GT(after.normalized().dot(to_base), std::cos(2.0 * M_PI / 180.0)) << "camera at " << eye.transpose();
+  // REP 103 optical axes: z at the objects' centre, y (image down) downward
+  const Eigen::Matrix3d axes = table.next_view->linear();
+  EXPECT_GT(axes.col(2).dot((centre - eye).normalized()), 1.0 - 1e-9);
+  EXPECT_LT(axes.col(1).z(), 0.0);
+  EXPECT_NEAR(axes.determinant(), 1.0, 1e-9);
+
+  // No suggestion when an object has a grasp (on the box nearer the camera, closing along x: the
+  // other box and its unseen part are out of the hand's way), or when the turn is 0.
+  const StubPlanner one([](const ObjectView& view) {
+    return view.cloud->points.front().y >= 0.0 ? std::vector<GraspCandidate>{}
+                                               : std::vector<GraspCandidate>{ topDown(centroidOf(view), Eigen::Vector3d::UnitX(), 0.5) };
+  });
+  const TableGraspResult picked = planTableGrasps(views, one, gripper, params);
+  EXPECT_TRUE(picked.ok());
+  EXPECT_FALSE(picked.next_view.has_value());
+  params.next_view_turn_rad = 0.0;
+  EXPECT_FALSE(planTableGrasps(views, none, gripper, params).next_view.has_value());
+
+  const TableGraspParams read = tableGraspParamsFromYaml(YAML::Load("{next_view_turn_rad: 0.4}"));
+  EXPECT_EQ(read.next_view_turn_rad, 0.4);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{next_view_turn_rad: 4.0}")), std::runtime_error);
+  EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{next_view_turn_rad: -0.1}")), std::runtime_error);
+}
+
 }  // namespace fast_grasp

@@ -423,6 +423,7 @@ TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
   reader.readNonNegative("approach_distance_m", p.approach_distance_m);
   reader.read("neighbour_unseen_parts", p.neighbour_unseen_parts);
   reader.readPositive("unseen_extension_m", p.unseen.extension_m);
+  reader.readNonNegative("next_view_turn_rad", p.next_view_turn_rad);
   reader.rejectUnknownKeys();
   throwIfInvalid("table_grasps", p.validate());
   return p;

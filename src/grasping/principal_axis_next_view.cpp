@@ -62,8 +62,8 @@ MainPlane fitMainPlane(const std::vector<Eigen::Vector2d>& area_xz)
   return plane;
 }
 
-/// Eq. 3.6: the sensor's look-at pose turned by `phi` about the principal axis through the
-/// centroid. In the object frame a positive phi turns the line of sight Z toward X.
+}  // namespace
+
 Eigen::Isometry3d viewTurnedAboutAxis(const CameraAboutAxis& camera, double phi)
 {
   const Eigen::Vector3d centre = camera.centroid.cast<double>();
@@ -73,8 +73,6 @@ Eigen::Isometry3d viewTurnedAboutAxis(const CameraAboutAxis& camera, double phi)
   about_axis.translation() = centre - about_axis.linear() * centre;
   return about_axis * current;
 }
-
-}  // namespace
 
 NextView nextViewForXozFailure(const std::vector<Eigen::Vector2d>& best_area_xz, double max_opening_m,
                                const CameraAboutAxis& camera)

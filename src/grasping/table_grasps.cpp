@@ -2,6 +2,7 @@
 
 #include "fast_grasp/grasping/grasp_features.h"
 #include "fast_grasp/grasping/gripper_volume.h"
+#include "fast_grasp/grasping/principal_axis_next_view.h"
 
 #include <algorithm>
 #include <cmath>
@@ -45,6 +46,8 @@ std::string TableGraspParams::validate() const
     why << "approach_distance_m must be in [0, 0.5]; ";
   if (!(unseen.extension_m > 0.0 && unseen.extension_m <= 1.0))
     why << "unseen extension must be in (0, 1] m; ";
+  if (!(next_view_turn_rad >= 0.0 && next_view_turn_rad <= M_PI))
+    why << "next_view_turn_rad must be in [0, pi]; ";
   return why.str();
 }
 
@@ -200,8 +203,39 @@ TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const Gra
       return best_b.drop_risk;
     return best_a.score > best_b.score;
   });
+  if (!table.ok())
+    table.next_view = tableNextView(views, params.next_view_turn_rad);
   table.compute_time_s = watch.elapsedSeconds();
   return table;
+}
+
+std::optional<Eigen::Isometry3d> tableNextView(const std::vector<ObjectView>& views, double turn_rad)
+{
+  if (!(turn_rad > 0.0) || views.empty() || views.front().sensor_origins.empty())
+    return std::nullopt;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t count = 0;
+  for (const ObjectView& view : views)
+    if (view.cloud)
+      for (const auto& p : view.cloud->points)
+        if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+        {
+          sum += p.getVector3fMap().cast<double>();
+          ++count;
+        }
+  if (count == 0)
+    return std::nullopt;
+  const ObjectView& first = views.front();
+  CameraAboutAxis camera;
+  camera.sensor = first.sensor_origins.front();
+  camera.centroid = (sum / static_cast<double>(count)).cast<float>();
+  camera.gravity = first.gravity;
+  camera.axis = first.has_table_plane ? Eigen::Vector3f(first.table_plane.head<3>()) : Eigen::Vector3f(-first.gravity);
+  if (!camera.sensor.allFinite() || !camera.axis.allFinite() || camera.axis.norm() < 1e-6f)
+    return std::nullopt;
+  const Eigen::Isometry3d one_way = viewTurnedAboutAxis(camera, turn_rad);
+  const Eigen::Isometry3d other_way = viewTurnedAboutAxis(camera, -turn_rad);
+  return one_way.translation().norm() <= other_way.translation().norm() ? one_way : other_way;
 }
 
 }  // namespace fast_grasp

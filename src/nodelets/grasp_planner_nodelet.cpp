@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <sstream>
 
 namespace fast_grasp
@@ -296,7 +297,7 @@ void GraspPlannerNodelet::cloudCallback(const boost::shared_ptr<const InputCloud
     const GraspResult result = planner_->plan(view, gripper_);
     grasps_pub_.publish(toMsg(result, header));
     publishMarkers(result, header);
-    publishNextView(result, header);
+    publishNextView(result.next_view, header);
     std::ostringstream summary;
     if (result.ok())
     {
@@ -406,8 +407,12 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
     {
       for (const ObjectGrasps& o : table.objects)
         summary << "; object " << labels[o.object] << ": " << statusText(o.result);
+      if (table.next_view)
+        summary << "; next view: the camera turned " << std::lround(table_params_.next_view_turn_rad * 180.0 / M_PI)
+                << " deg about the table, on ~next_view";
       msg.status = "NoStableGrasp: " + summary.str();
       grasps_pub_.publish(msg);
+      publishNextView(table.next_view, header);
       status_.warn(msg.status);
     }
   }
@@ -417,13 +422,14 @@ void GraspPlannerNodelet::objectsCallback(const boost::shared_ptr<const ObjectsC
   }
 }
 
-void GraspPlannerNodelet::publishNextView(const GraspResult& result, const std_msgs::Header& header)
+void GraspPlannerNodelet::publishNextView(const std::optional<Eigen::Isometry3d>& next_view,
+                                          const std_msgs::Header& header)
 {
-  if (!result.next_view)
+  if (!next_view)
     return;
   geometry_msgs::PoseStamped pose;
   pose.header = header;
-  pose.pose = tf2::toMsg(*result.next_view);
+  pose.pose = tf2::toMsg(*next_view);
   next_view_pub_.publish(pose);
 }
 

@@ -72,7 +72,9 @@ const char* const kUsage =
     "  --scene FILE         scene YAML (config/scenes/), rendered from its cameras as render_bag does\n"
     "  --ycb-dir DIR        YCB STL folder for ycb: meshes (default $FAST_GRASP_YCB_DIR)\n"
     "  --follow-next-view N with --scene: up to N times, render again from the planner's next view\n"
-    "                       (principal_axis, Ch3.2.3) and plan again (default 0)\n"
+    "                       (principal_axis, Ch3.2.3; with --all-objects, when no object has a grasp:\n"
+    "                       the camera turned about the table, table_grasps/next_view_turn_rad) and\n"
+    "                       plan again (default 0)\n"
     "  --algorithm A        principal_axis (default), cshape, boundary, concavity or fused (all four\n"
     "                       pooled with top-down and side grasps, ranked by the physics-fitted model)\n"
     "  --gripper G          config/grippers/G.yaml or a YAML file (default lacquey_fetch)\n"
@@ -235,8 +237,8 @@ Options parseOptions(int argc, char** argv)
     throw UsageError("--topic and --frame go with --bag");
   if (options.scene_path.empty() && (!options.ycb_dir.empty() || options.follow_next_view > 0))
     throw UsageError("--ycb-dir and --follow-next-view go with --scene");
-  if (options.all_objects && (options.already_segmented || options.follow_next_view > 0))
-    throw UsageError("--all-objects needs a table to segment and plans one view (no --already-segmented, --follow-next-view)");
+  if (options.all_objects && options.already_segmented)
+    throw UsageError("--all-objects needs a table to segment (no --already-segmented)");
   if (!options.pcd_path.empty() && !options.viewpoint)
     throw UsageError("--pcd needs --viewpoint x,y,z (the camera's optical centre in base_link)");
   const std::vector<std::string>& algorithms = graspAlgorithmNames();
@@ -669,12 +671,12 @@ bool writeReport(const Options& options, const Report& report)
 
 /// --all-objects: every object planned (table_grasps.h), the grasps of all objects written in
 /// pick order, each with its object; the summary and --save-object are the first object's.
-int planAllObjects(const Options& options, const PreparedView& prepared, const GraspPlanner& planner,
-                   const std::vector<std::size_t>& points_at_near_limit, const TableGraspParams& params,
-                   const GripperModel& gripper, Report& report, const std::function<int(const Failure&)>& finishFailure)
+int reportAllObjects(const Options& options, const PreparedView& prepared, const TableGraspResult& table,
+                     const std::vector<std::size_t>& points_at_near_limit, const TableGraspParams& params,
+                     Report& report, const std::function<int(const Failure&)>& finishFailure)
 {
-  const TableGraspResult table = planTableGrasps(prepared.objects, planner, gripper, params);
   report.compute_time_s = table.compute_time_s;
+  report.next_view = table.next_view;
   report.object_choice = toString(params.object_choice);
   for (const ObjectGrasps& object : table.objects)
   {
@@ -695,6 +697,8 @@ int planAllObjects(const Options& options, const PreparedView& prepared, const G
   if (!table.ok())
   {
     std::string reason = std::to_string(table.objects.size()) + " object(s), none with a grasp";
+    if (report.views.size() > 1)
+      reason = "after " + std::to_string(report.views.size()) + " views: " + reason;
     for (const Report::TableObject& o : report.objects)
       reason += "; " + o.message;
     return finishFailure({ "planning", "NoStableGrasp", reason });
@@ -804,8 +808,20 @@ int run(const Options& options)
         report.table_plane = prepared.view.table_plane;
       report.object = Report::ObjectSummary{ prepared.object_min, prepared.object_max, prepared.object_centroid };
       if (options.all_objects)
-        return planAllObjects(options, prepared, *planner, points_at_near_limit, config.table_grasps, gripper, report,
-                              [&](const Failure& f) { return finishFailure(f); });
+      {
+        const TableGraspResult table = planTableGrasps(prepared.objects, *planner, gripper, config.table_grasps);
+        if (scene)
+          report.views.push_back({ camera_pose, table.ok() ? "ok" : "NoStableGrasp",
+                                   table.ok() ? std::string() : "no object with a grasp" });
+        // No object with a grasp: the (rendered) camera looks again from beside the table.
+        if (!table.ok() && scene && table.next_view && view < options.follow_next_view)
+        {
+          camera_pose = *table.next_view;
+          continue;
+        }
+        return reportAllObjects(options, prepared, table, points_at_near_limit, config.table_grasps, report,
+                                [&](const Failure& f) { return finishFailure(f); });
+      }
       // What the planner saw, for checking its grasps offline (test/grasp_checks.py).
       if (!options.object_pcd_path.empty() &&
           pcl::io::savePCDFileBinary(options.object_pcd_path, *prepared.view.cloud) != 0)

@@ -9,7 +9,7 @@
 //
 // Parameters (private): scene (path, required), ycb_dir (default $FAST_GRASP_YCB_DIR, else the
 // scripts/fetch_ycb.sh cache),
-// frames_per_view (2), frame_period_s (0.5), max_views (3), start_delay_s (2.0), start_paused
+// frames_per_view (2), frame_period_s (0.5), max_views (3 per round with ~clear_table), start_delay_s (2.0), start_paused
 // (false: true waits for ~pause_playback(false), std_srvs/SetBool as rosbag play's, so a test or
 // report can start the camera once it listens; true pauses again). A view stops
 // sending frames once a next view for one of them is accepted; the camera moves on the next
@@ -25,7 +25,9 @@
 // executed_grasp (geometry_msgs/PoseStamped, remap to /arm_planner/executed_grasp): the first
 // one for a frame of the current round counts as a pick; the scene object nearest the grasp
 // point (its mesh vertices) is taken off the table, the camera goes back to the scene's view and
-// renders the rest (a new round, new noise seeds). Status lines "pick N: <object> (M left)" and,
+// renders the rest (a new round, new noise seeds). A round whose view has no grasp on any
+// object follows the planner's table next view (the camera turned about the table) like any
+// other next view. Status lines "pick N: <object> (M left)" and,
 // when nothing is left, "table cleared: N objects picked". No physics: what lay on a picked
 // object stays where it was (the physics evaluator, scripts/evaluate_clutter_physics.py, lets
 // the rest settle and executes the grasp).
@@ -177,7 +179,7 @@ private:
     // One move per view, for a frame of the current view only (the planner answers each frame).
     if (moved_ || !view_stamps_.count(microseconds(msg.header.stamp)))
       return;
-    if (view_ + 1 >= max_views_)
+    if (views_this_round_ + 1 >= max_views_)
     {
       report("next view ignored: max_views " + std::to_string(max_views_) + " reached");
       moved_ = true;
@@ -257,12 +259,16 @@ private:
     }
     pending_pose_ = scene_.cameras.front().optical_pose;  // back to the scene's view: the next round
     pending_reason_ = "the scene's view for round " + std::to_string(picks_ + 1);
+    pending_new_round_ = true;
   }
 
   void moveTo(const Eigen::Isometry3d& pose)
   {
     hand_.optical_pose = pose;
     ++view_;
+    // max_views counts the views of one round: each round may look again (the table's next view)
+    views_this_round_ = pending_new_round_ ? 0 : views_this_round_ + 1;
+    pending_new_round_ = false;
     view_stamps_.clear();
     frames_sent_ = 0;
     moved_ = false;
@@ -293,6 +299,8 @@ private:
   int frames_per_view_ = 2;
   int max_views_ = 3;
   int view_ = 0;
+  int views_this_round_ = 0;  // views since the round began (the scene's view is 0)
+  bool pending_new_round_ = false;
   int frames_sent_ = 0;
   bool moved_ = false;
   bool paused_ = false;

@@ -33,6 +33,12 @@ struct NextView
   std::string reason;
 };
 
+/// Eq. 3.6: the look-at pose of a camera at camera.sensor, looking at camera.centroid with its
+/// image upright against camera.gravity, turned by `phi` about camera.axis through the centroid.
+/// In the object frame of Ch3 a positive phi turns the line of sight Z toward X. Also the
+/// table's next view (table_grasps.h), which turns about the table's normal.
+Eigen::Isometry3d viewTurnedAboutAxis(const CameraAboutAxis& camera, double phi);
+
 /// Ch3.2.3, the thesis's own rule: every XOY-stable candidate fails XOZ. `best_area_xz` holds
 /// the object-frame (x, z) of the points in the finger band of the best XOY candidate; their
 /// total-least-squares line is the trace of the main plane. The camera turns to look

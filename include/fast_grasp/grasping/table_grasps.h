@@ -10,7 +10,10 @@
 #include "fast_grasp/core/gripper_model.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
+#include <Eigen/Geometry>
+
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +44,9 @@ struct TableGraspParams
   /// Also keep out of the neighbours' unseen parts (what hides behind them may be solid).
   bool neighbour_unseen_parts = true;
   UnseenPartParams unseen;
+  /// No object with a grasp: suggest the camera turned this far about the table's normal
+  /// through the objects' centre (TableGraspResult::next_view); 0 = no suggestion.
+  double next_view_turn_rad = 0.6;
 
   std::string validate() const;
 };
@@ -62,6 +68,9 @@ struct TableGraspResult
   std::vector<ObjectGrasps> objects;  // one per view, in the views' order
   /// Objects with a grasp, in the order object_choice picks them (pick order[0] first).
   std::vector<std::size_t> order;
+  /// No object with a grasp (and params.next_view_turn_rad > 0): where to look from next, a
+  /// camera pose (REP 103 optical axes) in the views' frame (tableNextView).
+  std::optional<Eigen::Isometry3d> next_view;
   double compute_time_s = 0.0;
   bool ok() const { return !order.empty(); }
   const ObjectGrasps& chosen() const { return objects.at(order.at(0)); }
@@ -75,6 +84,15 @@ struct TableGraspResult
 /// one frame, sensor origins and table plane (one camera frame segmented into objects).
 TableGraspResult planTableGrasps(const std::vector<ObjectView>& views, const GraspPlanner& planner,
                                  const GripperModel& gripper, const TableGraspParams& params);
+
+/// Beyond the thesis, whose next view (Ch3.2.3) serves one object: when no object on the table
+/// has a grasp from this view, an eye-in-hand camera looks again from beside it. The camera
+/// (views' first sensor origin) is turned by `turn_rad` about the table's normal (else against
+/// gravity) through the centre of all objects' points, keeping its distance and height, toward
+/// the side whose camera is nearer the base frame's origin (the arm stays in reach). Another
+/// side shows other faces of touching objects, other cuts between them and other grasps.
+/// None without a sensor origin, without finite points or with turn_rad <= 0.
+std::optional<Eigen::Isometry3d> tableNextView(const std::vector<ObjectView>& views, double turn_rad);
 
 /// Whether the open hand at `pose`, swept back `approach_distance_m` along its approach and
 /// grown by `clearance_m`, contains any of `obstacles` (base-frame points).

@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -79,8 +80,9 @@ private:
   /// `chosen_object` (~all_objects) that object's points too, in yellow.
   void publishMarkers(const GraspResult& result, const std_msgs::Header& header,
                       const CloudNormal* chosen_object = nullptr);
-  /// ~next_view (Ch3.2.3) whenever the planner suggests one (principal axis, fused).
-  void publishNextView(const GraspResult& result, const std_msgs::Header& header);
+  /// ~next_view whenever the planner suggests one (principal axis Ch3.2.3, fused) or, with
+  /// ~all_objects, no object on the table has a grasp (table_grasps.h tableNextView).
+  void publishNextView(const std::optional<Eigen::Isometry3d>& next_view, const std_msgs::Header& header);
 
   CallbackGate gate_;  // first: destroyed last (callback_gate.h)
   // The scene's own queue and thread (not the manager's multi-threaded queue): a cloud callback
