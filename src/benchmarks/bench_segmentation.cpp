@@ -290,7 +290,9 @@ int main(int argc, char** argv)
       "  --join-occluded 0|1 join an object's pieces a nearer object hides in the middle (default: config's)\n"
       "  --join-containers 0|1 join a container's inside to its outer wall across a gap (default: config's)\n"
       "  --min-cluster-points N, --min-height-m H: the segmentation's smallest cluster and lowest object point\n"
-      "                    (default: config/perception.yaml's)\n";
+      "                    (default: config/perception.yaml's)\n"
+      "  --plane-distance-m D  the table band: points within D of the plane are table, never object\n"
+      "                    (default 0.01, config/perception.yaml's)\n";
   fast_grasp::exitOnHelpFlag(argc, argv, kUsage);
   std::string data = std::getenv("FAST_GRASP_MOSD_DIR") ? std::getenv("FAST_GRASP_MOSD_DIR") : "";
   if (data.empty())
@@ -303,6 +305,7 @@ int main(int argc, char** argv)
   std::string sampling = "deployed";
   fast_grasp::TableSegmentationParams params;  // config/perception.yaml's values
   float seed_m = 0.03f, concavity_deg = 10.0f;
+  double plane_distance_m = 0.01;  // config/perception.yaml plane_distance_m
   std::string dump_dir;
   for (int i = 1; i < argc; ++i)
   {
@@ -344,6 +347,8 @@ int main(int argc, char** argv)
       params.min_cluster_points = std::stoi(value);
     else if (flag == "--min-height-m")
       params.min_height_above_table_m = std::stod(value);
+    else if (flag == "--plane-distance-m")
+      plane_distance_m = std::stod(value);
     else if (flag == "--seed-m")
       seed_m = std::stof(value);
     else if (flag == "--concavity-deg")
@@ -394,7 +399,7 @@ int main(int argc, char** argv)
     files.swap(kept);
   }
 
-  params.plane_distance_m = 0.01;
+  params.plane_distance_m = plane_distance_m;
   params.cluster_tolerance_m = 0.02;
   params.max_object_distance_m = 0.0;  // no robot here: every cluster counts
   params.split_concave_creases = method == "concave";  // lccp re-cuts the Euclidean clusters
