@@ -12,7 +12,8 @@ that view saw. Needs the YCB meshes (scripts/fetch_ycb.sh, run by scripts/instal
 Beyond the thesis, the table's next view (--all-objects, table_grasps.h tableNextView): when no
 object on a table has a grasp, the camera turned about the table toward the arm base, on a flat
 tray (never a grasp: the geometry of the turn) and on test/scenes/table_look_again.yaml (a grasp
-on the bar from the turned camera).
+on the bar from the turned camera). And a bottle whose top the camera's near limit cut
+(test/scenes/bottle_near_camera.yaml): looked at again from farther back (near_range.h).
 
     /usr/bin/python3 test/next_view_scenes_test.py --grasp-offline .ws/devel/lib/fast_grasp/grasp_offline
 """
@@ -200,6 +201,40 @@ class NextViewScenesTest(unittest.TestCase):
         self.assertLess(abs(offset @ along), 0.11 - 0.011, "beyond the bar's ends")
         self.assertLess(np.linalg.norm(offset - (offset @ along) * along), 0.01, "off the bar's axis")
         self.assertAlmostEqual(grasp["width_m"], 0.022, delta=0.01)
+
+    def test_a_bottle_cut_by_the_near_limit_is_looked_at_from_farther_back(self):
+        # test/scenes/bottle_near_camera.yaml (beyond the thesis, near_range.h): the first view
+        # is cut by the camera's 0.5 m minimum range, no grasp is returned for the one object,
+        # and the camera is moved back next_view_step_back_m along its optical axis, looking the
+        # same way. From there the bottle is seen whole and is grasped above its centre of mass
+        # (13 cm up) across its axis.
+        with open(PARAMS) as f:
+            step = yaml.safe_load(f)["near_range"]["next_view_step_back_m"]
+        with open(os.path.join(ROOT, "config", "grippers", "robotiq_2f85.yaml")) as f:
+            robotiq = yaml.safe_load(f)
+        object_pcd = os.path.join(self.tmp.name, "bottle.pcd")
+        report = evaluate_grasps.run_grasp_offline(
+            ["--scene", os.path.join(HERE, "scenes", "bottle_near_camera.yaml"), "--follow-next-view", "1"],
+            "fused", "robotiq_2f85", PARAMS, object_pcd, exe=GRASP_OFFLINE)
+        views = report["views"]
+        self.assertEqual([v["status"] for v in views], ["NoStableGrasp", "ok"], json.dumps(report)[:800])
+        self.assertIn("near limit cut the object", views[0]["message"])
+        self.assertIn("next view: the camera %d cm farther back" % round(100 * step), views[0]["message"])
+        eye, target = np.array([0.0, 0.0, 0.45]), np.array([0.42, 0.0, 0.13])
+        axis = (target - eye) / np.linalg.norm(target - eye)
+        self.assertLess(np.linalg.norm(np.array(views[0]["camera"]["position"]) - eye), 1e-4)
+        self.assertLess(np.linalg.norm(np.array(views[1]["camera"]["position"]) - (eye - step * axis)), 1e-4)
+        q0, q1 = (np.array(v["camera"]["quaternion_xyzw"]) for v in views)
+        self.assertGreater(abs(float(q0 @ q1)), 1.0 - 1e-6, "the second camera looks the same way")
+        grasp = report["grasps"][0]
+        self.assertFalse(grasp["drop_risk"])
+        self.assertGreater(grasp["position"][2], 0.13, "below the bottle's centre of mass")
+        self.assertLess(grasp["position"][2], 0.26, "above the bottle")
+        self.assertLess(np.linalg.norm(np.array(grasp["position"][:2]) - np.array([0.42, 0.0])), 0.033,
+                        "off the bottle's axis")
+        self.assertLessEqual(grasp["width_m"], 0.066 + 0.005)
+        ok, line = evaluate_grasps.check_best_grasp(report, object_pcd, evaluate_grasps.scene_cameras(report), robotiq)
+        self.assertTrue(ok, line)
 
 
 if __name__ == "__main__":

@@ -436,8 +436,9 @@ TEST(HoldCheck, TheShippedConfigChecksEveryThesisPlannerButNotFusedsPool)
   GraspPlannerConfig unchecked = config;
   unchecked.hold_check.planners.clear();
   EXPECT_EQ(dynamic_cast<const HoldCheckedPlanner*>(makeGraspPlanner("cshape", unchecked).get()), nullptr);
-  // The fused planner pools the planners unchecked (it ranks those grasps last itself): on a
-  // lying can its grasps are the same with and without the check.
+  // The fused planner pools the planners unchecked (it judges those grasps itself: for one
+  // object it does not return them, fused/return_drop_risk_grasps): on a lying can its grasps
+  // are the same with and without the check.
   const ObjectView lying = viewOf(synthetic::makeCylinder({ 0.0, 0.0, 0.034 }, { 0, 1, 0 }, 0.034, 0.10));
   const GraspResult fused = makeGraspPlanner("fused", config)->plan(lying, synthetic::robotiqLikeGripper());
   const GraspResult fused_unchecked = makeGraspPlanner("fused", unchecked)->plan(lying, synthetic::robotiqLikeGripper());
@@ -445,7 +446,7 @@ TEST(HoldCheck, TheShippedConfigChecksEveryThesisPlannerButNotFusedsPool)
   ASSERT_EQ(fused.grasps.size(), fused_unchecked.grasps.size());
   for (std::size_t i = 0; i < fused.grasps.size(); ++i)
     EXPECT_TRUE(fused.grasps[i].pose.isApprox(fused_unchecked.grasps[i].pose)) << i;
-  EXPECT_NE(fused.message.find("fingertips short of its axis, ranked last"), std::string::npos) << fused.message;
+  EXPECT_NE(fused.message.find("fingertips short of its axis, not returned"), std::string::npos) << fused.message;
   EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape, fused]")), std::runtime_error);
   EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planers: [cshape]")), std::runtime_error);
 }

@@ -313,6 +313,21 @@ TEST(TableGrasps, TheYamlSectionIsReadAndBadValuesAreRefused)
   EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{neighbour_clearance_m: -0.01}")), std::runtime_error);
   EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{approach_distance_m: 3.0}")), std::runtime_error);
   EXPECT_THROW(tableGraspParamsFromYaml(YAML::Load("{unknown_key: 1}")), std::runtime_error);
+  EXPECT_FALSE(tableGraspParamsFromYaml(YAML::Load("{return_drop_risk_grasps: false}")).return_drop_risk_grasps);
+}
+
+TEST(TableGrasps, OnATableTheFusedPlannerReturnsGraspsExpectedToDropAloneItDoesNot)
+{
+  // The shipped file: one object asked for gets "no stable grasp" (and a next view) rather than
+  // a grasp expected to drop; a table's planner returns it, its object picked after the others.
+  const GraspPlannerConfig single = loadGraspPlannerConfig(std::string(FAST_GRASP_SOURCE_DIR) + "/config/grasp_planners.yaml");
+  EXPECT_FALSE(single.fused.return_drop_risk_grasps);
+  EXPECT_TRUE(single.table_grasps.return_drop_risk_grasps);
+  EXPECT_TRUE(tablePlannerConfig(single).fused.return_drop_risk_grasps);
+  GraspPlannerConfig never = single;
+  never.table_grasps.return_drop_risk_grasps = false;
+  never.fused.return_drop_risk_grasps = true;
+  EXPECT_FALSE(tablePlannerConfig(never).fused.return_drop_risk_grasps);
 }
 
 }  // namespace fast_grasp

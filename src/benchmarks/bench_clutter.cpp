@@ -109,7 +109,7 @@ int main(int argc, char** argv)
   try
   {
     gripper = loadGripperModel(gripper_file);
-    config = loadGraspPlannerConfig(params_file);
+    config = tablePlannerConfig(loadGraspPlannerConfig(params_file));
   }
   catch (const std::exception& e)
   {

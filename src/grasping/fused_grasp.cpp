@@ -1,6 +1,7 @@
 #include "fast_grasp/grasping/fused_grasp.h"
 
 #include "fast_grasp/grasping/hold_check.h"
+#include "fast_grasp/grasping/near_range.h"
 #include "fast_grasp/grasping/planner_input.h"
 #include "fast_grasp/grasping/unseen_part.h"
 
@@ -628,7 +629,16 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       why << ", best success probability " << best << " < min_success_probability " << params_.min_success_probability;
     if (!result.message.empty())
       why << "; " << result.message;
-    const auto next_view = result.next_view;
+    auto next_view = result.next_view;
+    // Grasps closed on the near limit's cut: a view turned about the object at the same
+    // distance (the principal-axis planner's) is cut again; farther back it is not.
+    if (demoted.on_near_limit_cut > 0)
+      if (const auto back = nextViewBackFromNearLimit(*full_view.cloud, params_.near_range))
+      {
+        next_view = back;
+        why << "; next view: the camera " << std::lround(100.0 * params_.near_range.next_view_step_back_m)
+            << " cm farther back, beyond the near limit";
+      }
     result = GraspResult::fail(GraspFailure::NoStableGrasp, why.str());
     result.next_view = next_view;
     result.compute_time_s = watch.elapsedSeconds();

@@ -424,6 +424,7 @@ TableGraspParams tableGraspParamsFromYaml(const YAML::Node& section)
   reader.read("neighbour_unseen_parts", p.neighbour_unseen_parts);
   reader.readPositive("unseen_extension_m", p.unseen.extension_m);
   reader.readNonNegative("next_view_turn_rad", p.next_view_turn_rad);
+  reader.read("return_drop_risk_grasps", p.return_drop_risk_grasps);
   reader.rejectUnknownKeys();
   throwIfInvalid("table_grasps", p.validate());
   return p;
@@ -482,6 +483,7 @@ NearRangeParams nearRangeParamsFromYaml(const YAML::Node& section)
   reader.readPositive("extension_m", p.extension_m);
   reader.readPositive("step_m", p.step_m);
   reader.read("toward_camera", p.toward_camera);
+  reader.read("next_view_step_back_m", p.next_view_step_back_m);
   reader.rejectUnknownKeys();
   throwIfInvalid("near_range", p.validate());
   return p;
@@ -563,6 +565,12 @@ std::unique_ptr<GraspPlanner> makeThesisPlanner(const std::string& algorithm, co
   return nullptr;
 }
 }  // namespace
+
+GraspPlannerConfig tablePlannerConfig(GraspPlannerConfig config)
+{
+  config.fused.return_drop_risk_grasps = config.table_grasps.return_drop_risk_grasps;
+  return config;
+}
 
 std::unique_ptr<GraspPlanner> makeGraspPlanner(const std::string& algorithm, const GraspPlannerConfig& config)
 {

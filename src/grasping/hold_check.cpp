@@ -1,6 +1,7 @@
 #include "fast_grasp/grasping/hold_check.h"
 
 #include "fast_grasp/grasping/grasp_features.h"
+#include "fast_grasp/grasping/near_range.h"
 
 #include <algorithm>
 #include <cmath>
@@ -181,6 +182,14 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
     none.candidates = std::move(result.candidates);
     none.unseen = std::move(result.unseen);
     none.next_view = result.next_view;
+    // As in the fused planner: a view at the same distance would be cut again.
+    if (dropped.on_near_limit_cut > 0)
+      if (const auto back = nextViewBackFromNearLimit(*view.cloud, params_.near_range))
+      {
+        none.next_view = back;
+        none.message += "; next view: the camera " + std::to_string(std::lround(100.0 * params_.near_range.next_view_step_back_m)) +
+                        " cm farther back, beyond the near limit";
+      }
     none.compute_time_s = spent_s;
     return none;
   }

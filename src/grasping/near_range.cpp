@@ -28,6 +28,8 @@ std::string NearRangeParams::validate() const
   // Finer than 1 mm would make millions of points for an extension of decimetres.
   if (!(step_m >= 0.001 && step_m <= extension_m))
     why << "step_m must be in [0.001, extension_m] m; ";
+  if (!(next_view_step_back_m >= 0.0 && next_view_step_back_m <= 2.0))
+    why << "next_view_step_back_m must be in [0, 2] m; ";
   std::string s = why.str();
   if (!s.empty())
     s.resize(s.size() - 2);
@@ -133,6 +135,19 @@ bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripp
                           const NearRangeParams& params)
 {
   return !cut.empty() && pointsBetweenOpenFingers(grasp, gripper, cut).size() >= params.min_points;
+}
+
+std::optional<Eigen::Isometry3d> nextViewBackFromNearLimit(const CloudNormal& cloud, const NearRangeParams& params)
+{
+  if (!(params.next_view_step_back_m > 0.0))
+    return std::nullopt;
+  const std::optional<CloudCamera> camera = cloudCamera(cloud);
+  if (!camera)
+    return std::nullopt;
+  Eigen::Isometry3d view = Eigen::Isometry3d::Identity();
+  view.linear() = cloud.sensor_orientation_.normalized().toRotationMatrix().cast<double>();
+  view.translation() = (camera->origin - static_cast<float>(params.next_view_step_back_m) * camera->optical_axis).cast<double>();
+  return view;
 }
 
 std::size_t addNearRangeBlindSpace(ObjectView& view, const NearRangeParams& params)

@@ -89,7 +89,13 @@ GraspPlannerConfig GraspPlannerNodelet::plannerConfig(const ros::NodeHandle& pri
   if (private_nh.hasParam("max_object_extent_m"))
     top_level["max_object_extent_m"] = paramAsYaml(private_nh, "max_object_extent_m");
   setInputLimits(config, plannerInputLimitsFromYaml(top_level));
-  return config;
+  bool all_objects = false;
+  private_nh.param("all_objects", all_objects, false);
+  if (!all_objects)
+    return config;
+  config.table_grasps = tableGraspParamsFromYaml(private_nh.hasParam("table_grasps") ? paramAsYaml(private_nh, "table_grasps")
+                                                                                     : YAML::Node());
+  return tablePlannerConfig(config);
 }
 
 GraspPlannerNodelet::~GraspPlannerNodelet()

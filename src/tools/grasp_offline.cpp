@@ -755,7 +755,8 @@ int run(const Options& options)
   {
     const GripperModel gripper = loadGripper(options.gripper);
     report.gripper = gripper.name;
-    const GraspPlannerConfig config = loadPlannerConfig(options);
+    const GraspPlannerConfig config =
+        options.all_objects ? tablePlannerConfig(loadPlannerConfig(options)) : loadPlannerConfig(options);
     // the name was checked in parseOptions
     const std::unique_ptr<GraspPlanner> planner = makeGraspPlanner(options.algorithm, config);
     std::optional<SceneInput> scene;

@@ -117,8 +117,10 @@ struct FusedParams
   /// Grasps with a drop risk (dropRisk(): below a tall object's centre of mass, short of a
   /// lying cylinder's axis, onto its hidden side, across one seen face, on the near limit's cut)
   /// rank after every grasp without one; true returns them there, false never (the object then
-  /// gets NoStableGrasp when no other grasp remains, saying why). Beyond the thesis: in physics
-  /// the fused planner's top grasp held 1 of 8 times when all its candidates carried a risk.
+  /// gets NoStableGrasp when no other grasp remains, saying why, with a next view where one
+  /// helps). Beyond the thesis: in physics the fused planner's top grasp held 1 of 10 times when
+  /// all its candidates carried a risk. The shipped file says false for one object and true for
+  /// a table's planner (tablePlannerConfig, grasp_planner_params.h).
   bool return_drop_risk_grasps = true;
   GraspSuccessModel model;
 

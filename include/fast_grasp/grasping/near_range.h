@@ -31,6 +31,7 @@
 #include "fast_grasp/core/gripper_model.h"
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstddef>
 #include <optional>
@@ -63,6 +64,9 @@ struct NearRangeParams
   /// Also along each cut point's line of sight toward the camera (an object whose near side,
   /// not its top, was cut), not only upward.
   bool toward_camera = true;
+  /// No grasp left because grasps closed on the cut: suggest the camera moved back this far
+  /// along its optical axis (nextViewBackFromNearLimit); 0 = no suggestion.
+  double next_view_step_back_m = 0.15;
 
   std::string validate() const;
 };
@@ -103,6 +107,15 @@ CloudNormal nearLimitCut(const CloudNormal& cloud, const NearRangeParams& params
 /// region at full opening, finger-wide).
 bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripper, const CloudNormal& cut,
                           const NearRangeParams& params);
+
+/// Beyond the thesis (its next views turn the camera about the object at the same distance,
+/// where the near limit cuts the object again): the camera of `cloud` (cloudCamera) moved back
+/// params.next_view_step_back_m along its optical axis, its orientation kept, as a camera pose
+/// (REP 103 optical axes) in the cloud's frame. From there what reached nearer than the limit is
+/// in range when it went on by less than the step (extension_m is the blind space's guess of how
+/// far it goes on). For a planner to suggest when every grasp it had closed on the cut. None
+/// when the step is 0 or the cloud carries no camera pose.
+std::optional<Eigen::Isometry3d> nextViewBackFromNearLimit(const CloudNormal& cloud, const NearRangeParams& params);
 
 /// Adds the blind space of `view`'s object to view.obstacles, which every planner's hand
 /// check keeps out of (and planTableGrasps sweeps each hand's way in against). The camera is

@@ -47,6 +47,10 @@ struct TableGraspParams
   /// No object with a grasp: suggest the camera turned this far about the table's normal
   /// through the objects' centre (TableGraspResult::next_view); 0 = no suggestion.
   double next_view_turn_rad = 0.6;
+  /// On a table the fused planner returns grasps it expects to drop (its drop-risk tier), and
+  /// best_grasp picks their object after every other: tablePlannerConfig (grasp_planner_params.h)
+  /// puts this in place of fused/return_drop_risk_grasps, which answers a request for one object.
+  bool return_drop_risk_grasps = true;
 
   std::string validate() const;
 };

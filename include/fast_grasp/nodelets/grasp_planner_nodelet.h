@@ -50,8 +50,9 @@ protected:
   ros::NodeHandle& privateHandle() { return private_nh_; }
   /// Every section of config/grasp_planners.yaml under the private namespace (~cshape/*,
   /// ~fused/*, ~hold_check/*, ~max_object_extent_m, ...), read as loadGraspPlannerConfig reads
-  /// the file (a missing section: its defaults), for makeGraspPlanner. Throws
-  /// std::runtime_error naming a bad key or value.
+  /// the file (a missing section: its defaults), for makeGraspPlanner; with ~all_objects the
+  /// table's (tablePlannerConfig with ~table_grasps). Throws std::runtime_error naming a bad key
+  /// or value.
   static GraspPlannerConfig plannerConfig(const ros::NodeHandle& private_nh);
 
 private:
