@@ -636,8 +636,7 @@ GraspResult FusedGraspPlanner::plan(const ObjectView& full_view, const GripperMo
       if (const auto back = nextViewBackFromNearLimit(*full_view.cloud, params_.near_range))
       {
         next_view = back;
-        why << "; next view: the camera " << std::lround(100.0 * params_.near_range.next_view_step_back_m)
-            << " cm farther back, beyond the near limit";
+        why << "; " << nextViewBackFromNearLimitNote(params_.near_range);
       }
     result = GraspResult::fail(GraspFailure::NoStableGrasp, why.str());
     result.next_view = next_view;

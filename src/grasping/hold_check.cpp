@@ -187,8 +187,7 @@ GraspResult HoldCheckedPlanner::plan(const ObjectView& view, const GripperModel&
       if (const auto back = nextViewBackFromNearLimit(*view.cloud, params_.near_range))
       {
         none.next_view = back;
-        none.message += "; next view: the camera " + std::to_string(std::lround(100.0 * params_.near_range.next_view_step_back_m)) +
-                        " cm farther back, beyond the near limit";
+        none.message += "; " + nextViewBackFromNearLimitNote(params_.near_range);
       }
     none.compute_time_s = spent_s;
     return none;

@@ -150,6 +150,12 @@ std::optional<Eigen::Isometry3d> nextViewBackFromNearLimit(const CloudNormal& cl
   return view;
 }
 
+std::string nextViewBackFromNearLimitNote(const NearRangeParams& params)
+{
+  return "next view: the camera " + std::to_string(std::lround(100.0 * params.next_view_step_back_m)) +
+         " cm farther back, beyond the near limit";
+}
+
 std::size_t addNearRangeBlindSpace(ObjectView& view, const NearRangeParams& params)
 {
   if (!params.add_blind_space || !(params.sensor_min_range_m > 0.0) || !view.cloud)

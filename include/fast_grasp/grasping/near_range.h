@@ -116,6 +116,9 @@ bool closesOnNearLimitCut(const GraspCandidate& grasp, const GripperModel& gripp
 /// far it goes on). For a planner to suggest when every grasp it had closed on the cut. None
 /// when the step is 0 or the cloud carries no camera pose.
 std::optional<Eigen::Isometry3d> nextViewBackFromNearLimit(const CloudNormal& cloud, const NearRangeParams& params);
+/// What a planner's status says when it suggests that view: "next view: the camera 15 cm
+/// farther back, beyond the near limit".
+std::string nextViewBackFromNearLimitNote(const NearRangeParams& params);
 
 /// Adds the blind space of `view`'s object to view.obstacles, which every planner's hand
 /// check keeps out of (and planTableGrasps sweeps each hand's way in against). The camera is
