@@ -122,6 +122,37 @@ TEST(LyingCylinder, ABottleOnItsSideIsJudgedByItsBodysNormalsWhileABallIsNot)
   EXPECT_FALSE(fit(viewOf(synthetic::makeSphere({ 0.0, 0.0, r }, r))).found);
 }
 
+TEST(LyingCylinder, ASmallObjectTouchingALyingCanWidensTheClusterNotTheCan)
+{
+  // A pile's cluster: a 14 cm can of radius 3.4 cm lying along x, and a 2.5 cm cube on the
+  // table against its camera-side flank (one cluster when touching objects are not cut apart).
+  // Across the axis the cluster spans 6.8 + 2.5 = 9.3 cm, more than 1.25 x its 6.8 cm height,
+  // the most a lying circle's footprint spans; the can's own points span 6.8 cm at most.
+  const double r = 0.034;
+  const synthetic::Shape can = synthetic::makeCylinder({ 0.0, 0.0, r }, { 1, 0, 0 }, r, 0.14);
+  const synthetic::Shape cube = synthetic::makeBox({ 0.02, -(r + 0.0125), 0.0125 }, { 0.025, 0.025, 0.025 });
+  ObjectView view = synthetic::makeObjectView(
+      synthetic::renderView(std::vector<synthetic::Shape>{ can, cube }, { hold_check_fixtures::kCamera, 0.003, 0.0, 7 }),
+      hold_check_fixtures::kCamera);
+  view.has_table_plane = true;
+  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectExtent extent = objectExtent(view);
+  ASSERT_GT(extent.breadth_m, 1.25f * extent.height_m) << "the cube must widen the footprint for this test";
+  const LyingCylinder found = fit(view);
+  ASSERT_TRUE(found.found) << found.why;
+  EXPECT_NEAR(found.radius_m, r, 0.0015);
+  EXPECT_GT(std::abs(found.axis.x()), std::cos(3.0 * M_PI / 180.0));
+  EXPECT_LT(distanceFromLine(found.axis_point.cast<double>(), { 0.0, 0.0, r }, Eigen::Vector3d::UnitX()), 0.003);
+  // A can no longer than it is high is judged by all its points: the cube still refuses it.
+  const synthetic::Shape short_can = synthetic::makeCylinder({ 0.0, 0.0, r }, { 1, 0, 0 }, r, 0.06);
+  ObjectView short_view = synthetic::makeObjectView(
+      synthetic::renderView(std::vector<synthetic::Shape>{ short_can, cube }, { hold_check_fixtures::kCamera, 0.003, 0.0, 7 }),
+      hold_check_fixtures::kCamera);
+  short_view.has_table_plane = true;
+  short_view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  EXPECT_FALSE(fit(short_view).found);
+}
+
 TEST(LyingCylinder, BoxesStandingObjectsAndShortRollsAreNotLyingRoundObjects)
 {
   // A box as long as the can, its cross-section square (its height is the can's diameter).

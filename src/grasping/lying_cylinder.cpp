@@ -67,6 +67,7 @@ struct SectionFit
   /// bottle's shoulder and neck), and those points' span along the axis.
   float body_normal_spread_ratio = 1.0f;
   float body_length_m = 0.0f;
+  float body_breadth_m = 0.0f;  // the body's points' span across the axis
   float length_m = 0.0f;   // the points' span along the axis
   float breadth_m = 0.0f;  // ... and across it
   std::size_t normals_used = 0;
@@ -135,11 +136,17 @@ SectionFit fitSection(const std::vector<Eigen::Vector3f>& points, const std::vec
   angles.reserve(section.size());
   Eigen::Matrix2f scatter = Eigen::Matrix2f::Zero(), body_scatter = Eigen::Matrix2f::Zero();
   float body_lo = std::numeric_limits<float>::max(), body_hi = -body_lo;
+  float body_across_lo = body_lo, body_across_hi = -body_lo;
   const auto [e1, e2] = tablePlaneBasis(up);
   for (std::size_t i = 0; i < section.size(); ++i)
   {
     const Eigen::Vector2f radial(section[i].x() - axis_across, section[i].y() - radius);
     residuals.push_back(std::abs(radial.norm() - radius));
+    if (residuals.back() <= kBodyResidualFrac * radius)
+    {
+      body_across_lo = std::min(body_across_lo, section[i].x());
+      body_across_hi = std::max(body_across_hi, section[i].x());
+    }
     const Eigen::Vector3f& n = normals[i];
     if (!n.allFinite() || n.norm() < 0.5f || radial.norm() < 1e-4f || std::abs(n.normalized().dot(axis)) > 0.5f)
       continue;  // no normal, or an end face's
@@ -168,6 +175,7 @@ SectionFit fitSection(const std::vector<Eigen::Vector3f>& points, const std::vec
   fit.normal_spread_ratio = spreadRatio(scatter);
   fit.body_normal_spread_ratio = spreadRatio(body_scatter);
   fit.body_length_m = body_hi > body_lo ? body_hi - body_lo : 0.0f;
+  fit.body_breadth_m = body_across_hi > body_across_lo ? body_across_hi - body_across_lo : 0.0f;
   return fit;
 }
 }  // namespace
@@ -244,8 +252,12 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
     return refuse("not long enough for its height");
   // A circle's footprint is as wide as the circle is high, and a camera above the table sees
   // at least its near half: a box on its side (a cereal box: 6 cm deep, 17 cm high) is not one,
-  // however well its big faces fit a circle that large.
-  if (best.breadth_m < 0.5f * extent.height_m || best.breadth_m > 1.25f * extent.height_m)
+  // however well its big faces fit a circle that large. Where the body alone is as long as the
+  // object is high, its points' breadth judges: a small object touching a lying bottle (a cap,
+  // a sugar cube beside it in a pile: one cluster) widens the footprint, not the body.
+  const bool body_judges = best.body_length_m >= kBodyMinLengthToHeight * extent.height_m;
+  const float breadth = body_judges ? best.body_breadth_m : best.breadth_m;
+  if (breadth < 0.5f * extent.height_m || breadth > 1.25f * extent.height_m)
     return refuse("footprint not as wide as it is high");
   if (best.median_residual_m > static_cast<float>(params.max_median_residual_frac) * radius)
     return refuse("points off the circle");
@@ -257,9 +269,7 @@ LyingCylinder fitLyingCylinder(const ObjectView& view, const ObjectExtent& exten
   // least as long as the object is high, its normals judge. A ball's body (the band round it
   // square to the axis) is half as long as it is high, so a ball is still judged by all of
   // its normals (0.13-0.19).
-  const float spread = best.body_length_m >= kBodyMinLengthToHeight * extent.height_m
-                           ? best.body_normal_spread_ratio
-                           : best.normal_spread_ratio;
+  const float spread = body_judges ? best.body_normal_spread_ratio : best.normal_spread_ratio;
   out.normal_spread_ratio = spread;
   if (spread > static_cast<float>(params.max_normal_spread_ratio))
     return refuse("normals not square to one horizontal axis");
