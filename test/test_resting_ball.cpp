@@ -125,7 +125,7 @@ TEST(RestingBall, AFlatRoundBodyIsFittedAsAnEllipsoidWhenAllowed)
   const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.038 }, down, across), gripper, pebble, params));
   EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.05 }, down, across), gripper, pebble, params));
-  // It is flat (2 cm high against a 4.5 cm half-length): with the shipped extra depth (0.2 of
+  // It is flat (2 cm high against a 3.5 cm half-breadth): with the shipped extra depth (0.2 of
   // its 2 cm half-height = 4 mm past the centre) the tips 2 mm past it no longer do, 6 mm past do.
   EXPECT_TRUE(isFlatRoundBody(pebble, params));
   params.flat_min_fingertip_past_centre_frac = 0.2;
@@ -142,14 +142,10 @@ TEST(RestingBall, AFlatBodysFingertipsMustPassItsCentreABallsNeedNot)
   RestingBallParams params = enabled();
   params.flat_min_fingertip_past_centre_frac = 0.2;
   const Eigen::Vector3d down(0, 0, -1), across(0, 1, 0);
-  // A pebble 9 x 7 x 4 cm lying flat (centre 2 cm up): its vertical half-axis 0.44 times its
-  // longer one, flat. It needs the tips 0.2 x 2 cm = 4 mm past its centre: at 1.7 cm (3 mm past)
-  // dropped, at 1.5 cm kept.
+  // A pebble 9 x 7 x 4 cm lying flat (centre 2 cm up): 0.57 times as high as broad, flat. It
+  // needs the tips 0.2 x 2 cm = 4 mm past its centre: at 1.7 cm (3 mm past) dropped, at 1.5 cm kept.
   RestingBall pebble = restingBody(0.02f, 0.045f, 0.035f);
   EXPECT_TRUE(isFlatRoundBody(pebble, params));
-  // Seen from the side of its short axis, its far half cut off by its top, the fit's footprint
-  // is 2.1 cm broad instead of 3.5 (as in physics views of it): still flat, by its length.
-  EXPECT_TRUE(isFlatRoundBody(restingBody(0.02f, 0.045f, 0.021f), params));
   EXPECT_NEAR(fingertipReachPastCentre(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble), 0.003, 1e-6);
   EXPECT_TRUE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.037 }, down, across), gripper, pebble, params));
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.035 }, down, across), gripper, pebble, params));
@@ -162,7 +158,7 @@ TEST(RestingBall, AFlatBodysFingertipsMustPassItsCentreABallsNeedNot)
   const RestingBall ball = restingBody(0.04f, 0.04f, 0.04f);
   EXPECT_FALSE(isFlatRoundBody(ball, params));
   EXPECT_FALSE(fingertipsStopHighOnBall(graspAt({ 0.0, 0.0, 0.073 }, down, across), gripper, ball, params));
-  // Nor is a lemon on its side (7.2 x 5.4 x 5.4 cm): 0.75 times as high as long, not below it. Tips 2 mm short of
+  // Nor is a lemon on its side (7.2 x 5.4 x 5.4 cm): as high as it is broad. Tips 2 mm short of
   // its centre, 2.5 cm into it, are kept.
   const RestingBall lemon = restingBody(0.027f, 0.036f, 0.027f);
   EXPECT_FALSE(isFlatRoundBody(lemon, params));
@@ -247,13 +243,13 @@ TEST(RestingBall, TheShippedConfigChecksBallsAndBadParametersAreRefused)
                std::runtime_error);
   EXPECT_THROW(holdCheckConfigFromYaml(YAML::Load("planners: [cshape]\nresting_ball: {radius: 0.03}")),
                std::runtime_error);
-  EXPECT_DOUBLE_EQ(config.hold_check.resting_ball.flat_max_height_to_length, 0.75);
+  EXPECT_DOUBLE_EQ(config.hold_check.resting_ball.flat_max_height_to_breadth, 0.75);
   EXPECT_DOUBLE_EQ(config.hold_check.resting_ball.flat_min_fingertip_past_centre_frac, 0.2);
   RestingBallParams p = enabled();
   p.max_median_normal_angle_rad = 0.0;
   EXPECT_NE(p.validate(), "");
   p = enabled();
-  p.flat_max_height_to_length = 1.0;  // a ball would be flat
+  p.flat_max_height_to_breadth = 1.0;  // a ball would be flat
   EXPECT_NE(p.validate(), "");
   p = enabled();
   p.flat_min_fingertip_past_centre_frac = 1.5;

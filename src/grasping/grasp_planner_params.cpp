@@ -448,7 +448,7 @@ HoldCheckConfig holdCheckConfigFromYaml(const YAML::Node& section)
     ball.readCount("min_points", config.resting_ball.min_points, 3);
     ball.readNonNegative("min_fingertip_depth_m", config.resting_ball.min_fingertip_depth_m);
     ball.readPositive("max_length_to_height", config.resting_ball.max_length_to_height);
-    ball.readNonNegative("flat_max_height_to_length", config.resting_ball.flat_max_height_to_length);
+    ball.readNonNegative("flat_max_height_to_breadth", config.resting_ball.flat_max_height_to_breadth);
     ball.readNonNegative("flat_min_fingertip_past_centre_frac", config.resting_ball.flat_min_fingertip_past_centre_frac);
     ball.rejectUnknownKeys();
     throwIfInvalid("hold_check", config.resting_ball.validate());

@@ -31,8 +31,8 @@ std::string RestingBallParams::validate() const
     why << "resting_ball min_fingertip_depth_m must be in [0, 0.2] m; ";
   if (!(max_length_to_height >= 1.25 && max_length_to_height <= 10.0))
     why << "resting_ball max_length_to_height must be in [1.25, 10]; ";
-  if (!(flat_max_height_to_length >= 0.0 && flat_max_height_to_length < 1.0))
-    why << "resting_ball flat_max_height_to_length must be in [0, 1) (a ball is as high as it is long); ";
+  if (!(flat_max_height_to_breadth >= 0.0 && flat_max_height_to_breadth < 1.0))
+    why << "resting_ball flat_max_height_to_breadth must be in [0, 1) (a ball is as high as it is broad); ";
   if (!(flat_min_fingertip_past_centre_frac >= 0.0 && flat_min_fingertip_past_centre_frac <= 1.0))
     why << "resting_ball flat_min_fingertip_past_centre_frac must be in [0, 1]; ";
   return why.str();
@@ -187,13 +187,9 @@ float fingertipReachPastCentre(const GraspCandidate& grasp, const GripperModel& 
 
 bool isFlatRoundBody(const RestingBall& ball, const RestingBallParams& params)
 {
-  // Against the longer half-axis: the camera sees a body's far side cut off by its top, so the
-  // footprint's extent along the line of sight, often its narrower half-axis, comes out short
-  // (a pebble 9 x 7 x 4 cm seen 30-60 deg down: 3.5 cm half-breadth fitted as 2.0-2.2 cm, and
-  // judged "as high as broad"); across the line of sight it is seen whole.
-  const float length = ball.horizontal_half_axes_m.maxCoeff();
-  return ball.found && length > 0.0f &&
-         ball.radius_m < static_cast<float>(params.flat_max_height_to_length) * length;
+  const float breadth = ball.horizontal_half_axes_m.minCoeff();
+  return ball.found && breadth > 0.0f &&
+         ball.radius_m <= static_cast<float>(params.flat_max_height_to_breadth) * breadth;
 }
 
 bool fingertipsStopHighOnBall(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball,

@@ -48,12 +48,12 @@ struct RestingBallParams
   /// footprint's length and breadth, half the height; a flat pebble, an egg, a lemon on its
   /// side), whose fingertip depth is measured along the approach to its surface. 1.25 = balls only.
   double max_length_to_height = 1.25;
-  /// A flat round body (its vertical half-axis below this many times its footprint's longer
-  /// half-axis: a pebble 0.44, not a lemon on its side 0.75 nor a ball 1) held by the fingertips' edges at its rim swings out about the line
+  /// A flat round body (at most this many times as high as its footprint is broad: a pebble,
+  /// not a ball or a lemon) held by the fingertips' edges at its rim swings out about the line
   /// between the two contacts; its grasps must put the tips this fraction of its vertical
   /// half-axis past its centre along the approach (the pads then close on the rim with their
   /// faces). 0 = no extra depth for flat bodies.
-  double flat_max_height_to_length = 0.75;
+  double flat_max_height_to_breadth = 0.75;
   double flat_min_fingertip_past_centre_frac = 0.0;
 
   std::string validate() const;
@@ -85,8 +85,8 @@ float radiusAlong(const RestingBall& ball, const Eigen::Vector3f& direction);
 /// `ball` along the approach (negative: they stop short of it). Not meaningful unless found.
 float fingertipReachPastCentre(const GraspCandidate& grasp, const GripperModel& gripper, const RestingBall& ball);
 
-/// A found body whose vertical half-axis is below `params.flat_max_height_to_length` times its
-/// footprint's longer half-axis (a ball's fit, whose half-axes are all its radius, never is).
+/// A found body at most `params.flat_max_height_to_breadth` times as high as its footprint's
+/// narrower half-axis is broad (a ball's fit, whose half-axes are all its radius, never is).
 bool isFlatRoundBody(const RestingBall& ball, const RestingBallParams& params);
 /// A grasp whose fingertips stop short of `params.min_fingertip_depth_m` into a found ball and
 /// short of its centre, or, on a flat body, less than `flat_min_fingertip_past_centre_frac` of
