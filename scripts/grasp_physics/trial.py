@@ -16,6 +16,20 @@ TABLE_CENTRE_XY_M = (0.55, 0.0)
 TABLE_HALF_SIZE_M = (0.6, 0.4, 0.02)
 
 
+class StillCounter:
+    """Counts the steps since the last one with a speed over params.settle_speed: the bodies are
+    at rest once that has lasted params.settle_still_s."""
+
+    def __init__(self, params, timestep_s):
+        self.needed = max(1, int(round(params.settle_still_s / timestep_s)))
+        self.speed = params.settle_speed
+        self.still = 0
+
+    def at_rest(self, max_speed):
+        self.still = self.still + 1 if max_speed < self.speed else 0
+        return self.still >= self.needed
+
+
 class TrialParams:
     def __init__(self, **overrides):
         self.friction = 0.8
@@ -30,7 +44,16 @@ class TrialParams:
         self.shake_s = 2.0
         self.hold_s = 2.0
         self.lifted_m = 0.10
-        self.settle_s = 3.0
+        # a single object's settle: at most this long (a pebble dropped tilted rocks for up to ~8 s
+        # in MuJoCo, which has no rolling resistance here)
+        self.settle_s = 10.0
+        # a clutter table's settles: at most this long (a ball rolling off the pile never stops);
+        # they still end at the first slow step (scripts/grasp_physics/clutter.py)
+        self.clutter_settle_s = 3.0
+        # at rest = every speed under settle_speed for settle_still_s on end: one slow step is a
+        # rocking body's turning point (a pebble 20-40 deg from flat, a mug about to tip over)
+        self.settle_speed = 2e-3
+        self.settle_still_s = 0.3
         for k, v in overrides.items():
             if not hasattr(self, k):
                 raise KeyError("unknown trial parameter %s" % k)
@@ -160,10 +183,10 @@ class Scene:
         d.qpos[self.obj_qadr:self.obj_qadr + 3] = [xy[0], xy[1], -lowest + 0.003]
         d.qpos[self.obj_qadr + 3:self.obj_qadr + 7] = quat_wxyz
         self._park_hand()
-        steps = int(self.params.settle_s / m.opt.timestep)
-        for i in range(steps):
+        still = StillCounter(self.params, m.opt.timestep)
+        for _ in range(int(self.params.settle_s / m.opt.timestep)):
             mujoco.mj_step(m, d)
-            if i > 200 and np.abs(d.qvel[self.obj_vadr:self.obj_vadr + 6]).max() < 2e-3:
+            if still.at_rest(np.abs(d.qvel[self.obj_vadr:self.obj_vadr + 6]).max()):
                 break
         return d.qpos[self.obj_qadr:self.obj_qadr + 3].copy(), d.qpos[self.obj_qadr + 3:self.obj_qadr + 7].copy()
 
