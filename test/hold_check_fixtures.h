@@ -18,14 +18,21 @@ namespace hold_check_fixtures
 /// The camera both tests look from: up and to the side, 0.4 m from the table's origin.
 inline const Eigen::Vector3d kCamera(-0.40, 0.12, 0.42);
 
-/// `shape` as that camera sees it (3 mm rays, `noise_m` of depth noise, seed 7), on the table z = 0.
-inline ObjectView tableView(const synthetic::Shape& shape, double noise_m = 0.0)
+/// `shapes` as that camera sees them (3 mm rays, `noise_m` of depth noise, seed 7), as one
+/// object on the table z = 0 (several shapes: one cluster of touching objects).
+inline ObjectView tableView(const std::vector<synthetic::Shape>& shapes, double noise_m = 0.0)
 {
-  auto cloud = synthetic::renderView(shape, { kCamera, 0.003, noise_m, 7 });
+  auto cloud = synthetic::renderView(shapes, { kCamera, 0.003, noise_m, 7 });
   ObjectView view = synthetic::makeObjectView(cloud, kCamera);
   view.has_table_plane = true;
   view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
   return view;
+}
+
+/// One `shape` as that camera sees it, on the table z = 0.
+inline ObjectView tableView(const synthetic::Shape& shape, double noise_m = 0.0)
+{
+  return tableView(std::vector<synthetic::Shape>{ shape }, noise_m);
 }
 
 /// A grasp centred at `centre`, approaching along `approach`, closing along `closing`.

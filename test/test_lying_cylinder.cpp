@@ -131,11 +131,7 @@ TEST(LyingCylinder, ASmallObjectTouchingALyingCanWidensTheClusterNotTheCan)
   const double r = 0.034;
   const synthetic::Shape can = synthetic::makeCylinder({ 0.0, 0.0, r }, { 1, 0, 0 }, r, 0.14);
   const synthetic::Shape cube = synthetic::makeBox({ 0.02, -(r + 0.0125), 0.0125 }, { 0.025, 0.025, 0.025 });
-  ObjectView view = synthetic::makeObjectView(
-      synthetic::renderView(std::vector<synthetic::Shape>{ can, cube }, { hold_check_fixtures::kCamera, 0.003, 0.0, 7 }),
-      hold_check_fixtures::kCamera);
-  view.has_table_plane = true;
-  view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
+  const ObjectView view = hold_check_fixtures::tableView({ can, cube });
   const ObjectExtent extent = objectExtent(view);
   ASSERT_GT(extent.breadth_m, 1.25f * extent.height_m) << "the cube must widen the footprint for this test";
   const LyingCylinder found = fit(view);
@@ -145,12 +141,7 @@ TEST(LyingCylinder, ASmallObjectTouchingALyingCanWidensTheClusterNotTheCan)
   EXPECT_LT(distanceFromLine(found.axis_point.cast<double>(), { 0.0, 0.0, r }, Eigen::Vector3d::UnitX()), 0.003);
   // A can no longer than it is high is judged by all its points: the cube still refuses it.
   const synthetic::Shape short_can = synthetic::makeCylinder({ 0.0, 0.0, r }, { 1, 0, 0 }, r, 0.06);
-  ObjectView short_view = synthetic::makeObjectView(
-      synthetic::renderView(std::vector<synthetic::Shape>{ short_can, cube }, { hold_check_fixtures::kCamera, 0.003, 0.0, 7 }),
-      hold_check_fixtures::kCamera);
-  short_view.has_table_plane = true;
-  short_view.table_plane = Eigen::Vector4f(0, 0, 1, 0);
-  EXPECT_FALSE(fit(short_view).found);
+  EXPECT_FALSE(fit(hold_check_fixtures::tableView({ short_can, cube })).found);
 }
 
 TEST(LyingCylinder, BoxesStandingObjectsAndShortRollsAreNotLyingRoundObjects)
