@@ -110,7 +110,7 @@ def build_table(args):
     params = single.trial_lib.TrialParams(friction=args.friction)
     candidates = evaluator.load_candidates(argparse.Namespace(
         kinds=args.kinds, ycb_dir=args.ycb_dir, objects="", objects_config=args.objects_config,
-        cache_dir=args.cache_dir), gripper)
+        cache_dir=args.cache_dir, split="train"), gripper)
     assert all(o.split == "train" for o in candidates), "clutter scenes use the training half only"
     rng = np.random.default_rng(args.seed)
     chosen = [candidates[i] for i in rng.choice(len(candidates), size=min(args.objects, len(candidates)),

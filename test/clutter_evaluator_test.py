@@ -2,7 +2,7 @@
 """The clutter scenes and clearance loop (scripts/grasp_physics/clutter.py,
 scripts/evaluate_clutter_physics.py, issue 11 parts 1 and 4): a packed table's objects end
 upright and touching, a piled table settles with every object on the table and some resting on
-others, a grasp in clutter that lifts one object names it, and a fixed 3-object packed table is
+others, and at rest (one more second of physics moves nothing), a grasp in clutter that lifts one object names it, and a fixed 3-object packed table is
 cleared end to end through grasp_offline with the same result twice (the second time picked out
 of a longer run with --only-tables, its scenes kept with --keep-scenes).
 
@@ -10,12 +10,14 @@ Runs in the evaluator's venv (scripts/setup_venv.sh):
     .ws/venv/bin/python test/clutter_evaluator_test.py --grasp-offline .ws/devel/lib/fast_grasp/grasp_offline
 """
 import csv
+import math
 import os
 import subprocess
 import sys
 import tempfile
 import unittest
 
+import mujoco
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -32,6 +34,8 @@ OBJECTS_YAML = os.path.join(ROOT, "config/evaluation/objects.yaml")
 # parametric training objects only: the suite needs no YCB download and no convex decomposition
 PACKED_OBJECTS = ["can_soup", "box_juice", "cup_paper", "bottle_small"]
 PILED_OBJECTS = ["can_soup", "box_soap", "box_juice", "can_tuna", "sphere_d60"]
+# cups and round bodies: they rock for seconds where they land on each other
+ROCKING_OBJECTS = ["glass_shot", "cup_paper", "ellipsoid_flat", "ellipsoid_lemon", "cup_mug_plain"]
 
 
 def parametric(names):
@@ -71,7 +75,9 @@ class ClutterTest(unittest.TestCase):
 
     def test_piled_objects_settle_on_the_table_and_on_each_other(self):
         objs = parametric(PILED_OBJECTS)
-        scene, poses = clutter.make_table("piled", objs, robotiq(), np.random.default_rng(3))
+        # seed 0: the first seed whose drops come to rest on each other (11 of seeds 0-15 do; the
+        # others roll apart on the table, which the clearance protocol also allows)
+        scene, poses = clutter.make_table("piled", objs, robotiq(), np.random.default_rng(0))
         self.assertGreaterEqual(len(scene.objs), 3)
         for k, pose in enumerate(poses):
             z = scene.world_vertices(k, pose)[:, 2]
@@ -86,6 +92,19 @@ class ClutterTest(unittest.TestCase):
         # a pile: at least one object rests on another one, not only on the table
         pairs = scene.contact_pairs()
         self.assertTrue(any(a.startswith("object") and b.startswith("object") for a, b in pairs), pairs)
+
+    def test_a_piled_table_is_at_rest(self):
+        # Seed 19: a pile the first-slow-step settle (until session 40) left moving, 8.5 mm and
+        # 11.5 deg in the next second (with it, 6 of seeds 0-39 of these objects did; now 1). At
+        # rest means it stays put under one more second of physics.
+        scene, poses = clutter.make_table("piled", parametric(ROCKING_OBJECTS), robotiq(), np.random.default_rng(19))
+        scene.set_poses(poses)
+        for _ in range(int(1.0 / scene.model.opt.timestep)):
+            mujoco.mj_step(scene.model, scene.data)
+        for k, ((p0, q0), (p1, q1)) in enumerate(zip(poses, scene.poses())):
+            turned_deg = math.degrees(2.0 * math.acos(min(1.0, abs(float(np.dot(q0, q1))))))
+            self.assertLess(np.linalg.norm(p1 - p0), 0.003, scene.objs[k].name)
+            self.assertLess(turned_deg, 3.0, scene.objs[k].name)
 
     def test_same_seed_same_table(self):
         a = clutter.make_table("piled", parametric(PILED_OBJECTS), robotiq(), np.random.default_rng(11))[1]

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from . import objects as objects_lib
-from .trial import TrialParams, _f, execute_grasp, object_geoms, random_quat, rotated, world_xml
+from .trial import StillCounter, TrialParams, _f, execute_grasp, object_geoms, random_quat, rotated, world_xml
 
 # where the clutter is built: in front of the robot like the single-object evaluator's objects
 CLUTTER_CENTRE_XY_M = (0.5, 0.0)
@@ -100,14 +100,14 @@ class ClutterScene:
         return max([np.abs(d.qvel[a:a + 6]).max() for a in self.vadr] or [0.0])
 
     def settle(self, max_s=None, min_s=0.2):
-        """Steps until every object is still (or max_s); returns the poses."""
+        """Steps until every object is at rest (StillCounter: every speed under settle_speed for
+        settle_still_s on end) or max_s (default settle_s) has passed; returns the poses."""
         m, d = self.model, self.data
-        # (the first slow step ends it, as a single object's settle did until session 39: see
-        # StillCounter in trial.py; measured piles and their history rest on this one)
-        steps = int((max_s or self.params.clutter_settle_s) / m.opt.timestep)
+        steps = int((max_s or self.params.settle_s) / m.opt.timestep)
+        still = StillCounter(self.params, m.opt.timestep)
         for i in range(steps):
             mujoco.mj_step(m, d)
-            if i * m.opt.timestep > min_s and self.max_speed() < 2e-3:
+            if still.at_rest(self.max_speed()) and i * m.opt.timestep > min_s:
                 break
         return self.poses()
 
@@ -276,15 +276,16 @@ def _settle_some(scene, moving, poses):
     """Settles the objects `moving` while the others stay frozen at their given poses."""
     m, d = scene.model, scene.data
     frozen = [k for k in range(len(scene.objs)) if k not in moving]
-    steps = int(scene.params.clutter_settle_s / m.opt.timestep)
+    steps = int(scene.params.settle_s / m.opt.timestep)
+    still = StillCounter(scene.params, m.opt.timestep)
     for i in range(steps):
         for k in frozen:
             a, v = scene.qadr[k], scene.vadr[k]
             d.qpos[a:a + 3], d.qpos[a + 3:a + 7] = poses[k]
             d.qvel[v:v + 6] = 0.0
         mujoco.mj_step(m, d)
-        if i * m.opt.timestep > 0.3 and max(np.abs(d.qvel[scene.vadr[k]:scene.vadr[k] + 6]).max()
-                                            for k in moving) < 2e-3:
+        speed = max(np.abs(d.qvel[scene.vadr[k]:scene.vadr[k] + 6]).max() for k in moving)
+        if still.at_rest(speed) and i * m.opt.timestep > 0.3:
             break
     return scene.poses()
 

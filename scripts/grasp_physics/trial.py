@@ -44,12 +44,11 @@ class TrialParams:
         self.shake_s = 2.0
         self.hold_s = 2.0
         self.lifted_m = 0.10
-        # a single object's settle: at most this long (a pebble dropped tilted rocks for up to ~8 s
-        # in MuJoCo, which has no rolling resistance here)
+        # a settle (one object, or a clutter table's drops and the rest after a pick): at most this
+        # long (a pebble dropped tilted rocks for up to ~8 s in MuJoCo, which has no rolling
+        # resistance here, also in a pile; a ball rolling off the table never stops, and a pile
+        # whose contacts chatter at ~1 mm/s stops here too, having moved < 1 mm)
         self.settle_s = 10.0
-        # a clutter table's settles: at most this long (a ball rolling off the pile never stops);
-        # they still end at the first slow step (scripts/grasp_physics/clutter.py)
-        self.clutter_settle_s = 3.0
         # at rest = every speed under settle_speed for settle_still_s on end: one slow step is a
         # rocking body's turning point (a pebble 20-40 deg from flat, a mug about to tip over)
         self.settle_speed = 2e-3
