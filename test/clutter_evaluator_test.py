@@ -2,9 +2,10 @@
 """The clutter scenes and clearance loop (scripts/grasp_physics/clutter.py,
 scripts/evaluate_clutter_physics.py, issue 11 parts 1 and 4): a packed table's objects end
 upright and touching, a piled table settles with every object on the table and some resting on
-others, and at rest (one more second of physics moves nothing), a grasp in clutter that lifts one object names it, and a fixed 3-object packed table is
-cleared end to end through grasp_offline with the same result twice (the second time picked out
-of a longer run with --only-tables, its scenes kept with --keep-scenes).
+others, and at rest (one more second of physics moves nothing), a grasp in clutter that lifts
+one object names it, and a fixed 3-object packed table is cleared end to end through
+grasp_offline with the same result twice (the second time picked out of a longer run with
+--only-tables, its scenes kept with --keep-scenes).
 
 Runs in the evaluator's venv (scripts/setup_venv.sh):
     .ws/venv/bin/python test/clutter_evaluator_test.py --grasp-offline .ws/devel/lib/fast_grasp/grasp_offline
