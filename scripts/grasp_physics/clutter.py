@@ -95,19 +95,27 @@ class ClutterScene:
         pos, quat = pose if pose is not None else self.poses()[k]
         return rotated(self.objs[k].visual.vertices, quat) + pos
 
-    def max_speed(self):
+    def max_speed(self, objects=None):
+        """The largest speed component of `objects` (indices; default all)."""
         d = self.data
-        return max([np.abs(d.qvel[a:a + 6]).max() for a in self.vadr] or [0.0])
+        adr = self.vadr if objects is None else [self.vadr[k] for k in objects]
+        return max([np.abs(d.qvel[a:a + 6]).max() for a in adr] or [0.0])
 
-    def settle(self, max_s=None, min_s=0.2):
-        """Steps until every object is at rest (StillCounter: every speed under settle_speed for
-        settle_still_s on end) or max_s (default settle_s) has passed; returns the poses."""
+    def settle(self, max_s=None, min_s=0.2, moving=None, held_poses=None):
+        """Steps until the objects `moving` (default all) are at rest (StillCounter: every speed
+        under settle_speed for settle_still_s on end) or max_s (default settle_s) has passed; the
+        others stay frozen at their held_poses. Returns the poses."""
         m, d = self.model, self.data
+        frozen = [] if moving is None else [k for k in range(len(self.objs)) if k not in moving]
         steps = int((max_s or self.params.settle_s) / m.opt.timestep)
         still = StillCounter(self.params, m.opt.timestep)
         for i in range(steps):
+            for k in frozen:
+                a, v = self.qadr[k], self.vadr[k]
+                d.qpos[a:a + 3], d.qpos[a + 3:a + 7] = held_poses[k]
+                d.qvel[v:v + 6] = 0.0
             mujoco.mj_step(m, d)
-            if still.at_rest(self.max_speed()) and i * m.opt.timestep > min_s:
+            if still.at_rest(self.max_speed(moving)) and i * m.opt.timestep > min_s:
                 break
         return self.poses()
 
@@ -262,7 +270,7 @@ def make_piled(objs, gripper, rng, params=None, drop_height_m=0.03, radius_m=0.0
             poses = list(before)
             poses[k] = (np.array([xy[0], xy[1], top + drop_height_m - lowest]), quat)
             scene.set_poses(poses)
-            poses = _settle_some(scene, dropped + [k], poses)
+            poses = scene.settle(min_s=0.3, moving=dropped + [k], held_poses=poses)
             if len(on_table(scene, [poses[j] for j in dropped + [k]], sub=[*dropped, k])) == len(dropped) + 1:
                 dropped.append(k)
                 break
@@ -270,24 +278,6 @@ def make_piled(objs, gripper, rng, params=None, drop_height_m=0.03, radius_m=0.0
             poses = before
     scene.set_poses(poses)
     return scene, poses
-
-
-def _settle_some(scene, moving, poses):
-    """Settles the objects `moving` while the others stay frozen at their given poses."""
-    m, d = scene.model, scene.data
-    frozen = [k for k in range(len(scene.objs)) if k not in moving]
-    steps = int(scene.params.settle_s / m.opt.timestep)
-    still = StillCounter(scene.params, m.opt.timestep)
-    for i in range(steps):
-        for k in frozen:
-            a, v = scene.qadr[k], scene.vadr[k]
-            d.qpos[a:a + 3], d.qpos[a + 3:a + 7] = poses[k]
-            d.qvel[v:v + 6] = 0.0
-        mujoco.mj_step(m, d)
-        speed = max(np.abs(d.qvel[scene.vadr[k]:scene.vadr[k] + 6]).max() for k in moving)
-        if still.at_rest(speed) and i * m.opt.timestep > 0.3:
-            break
-    return scene.poses()
 
 
 def on_table(scene, poses, workspace_radius_m=None, centre_xy=CLUTTER_CENTRE_XY_M, sub=None):
