@@ -286,7 +286,8 @@ int main(int argc, char** argv)
       "  --method M        concave (the pipeline's: Euclidean clusters cut at concave creases, default),\n"
       "                    euclidean (Euclidean clusters only) or lccp (experiment: PCL's LCCP over the\n"
       "                    Euclidean clusters, --seed-m supervoxel seed size, default 0.03, --concavity-deg, default 10)\n"
-      "  --tolerance-rad R, --link-radius-m M, --k N, --min-piece N: the concave split's parameters\n"
+      "  --tolerance-rad R, --link-radius-m M, --k N, --min-piece N, --min-standing-piece N: the concave\n"
+      "                    split's parameters\n"
       "  --join-occluded 0|1 join an object's pieces a nearer object hides in the middle (default: config's)\n"
       "  --join-containers 0|1 join a container's inside to its outer wall across a gap (default: config's)\n"
       "  --min-cluster-points N, --min-height-m H: the segmentation's smallest cluster and lowest object point\n"
@@ -339,6 +340,8 @@ int main(int argc, char** argv)
       params.concave_split.k_neighbours = std::stoi(value);
     else if (flag == "--min-piece")
       params.concave_split.min_piece_points = std::stoi(value);
+    else if (flag == "--min-standing-piece")
+      params.concave_split.min_standing_piece_points = std::stoi(value);
     else if (flag == "--join-occluded")
       params.join_occluded_pieces = value == "1" || value == "true";
     else if (flag == "--join-containers")

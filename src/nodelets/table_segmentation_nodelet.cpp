@@ -69,6 +69,8 @@ std::string TableSegmentationNodelet::readParameters(ros::NodeHandle& pnh)
   pnh.param("concave_link_radius_m", params_.concave_split.link_radius_m, params_.concave_split.link_radius_m);
   pnh.param("concave_tolerance_rad", params_.concave_split.concave_tolerance_rad, params_.concave_split.concave_tolerance_rad);
   pnh.param("concave_min_piece_points", params_.concave_split.min_piece_points, params_.concave_split.min_piece_points);
+  pnh.param("concave_min_standing_piece_points", params_.concave_split.min_standing_piece_points,
+            params_.concave_split.min_standing_piece_points);
   pnh.param("inside_concave_fraction", params_.concave_split.concave_piece_fraction, params_.concave_split.concave_piece_fraction);
   pnh.param("inside_bent_pair_rad", params_.concave_split.bent_pair_rad, params_.concave_split.bent_pair_rad);
   pnh.param("inside_pair_min_distance_m", params_.concave_split.bend_min_distance_m, params_.concave_split.bend_min_distance_m);

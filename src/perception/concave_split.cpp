@@ -34,6 +34,18 @@ std::map<std::size_t, int> borderLinks(const std::vector<std::vector<std::size_t
   return border;
 }
 
+/// Height of points above the table `plane` (a, b, c, d with its normal up).
+struct HeightAboveTable
+{
+  explicit HeightAboveTable(const Eigen::Vector4f& plane)
+    : up(plane.head<3>().normalized()), offset(plane[3] / plane.head<3>().norm())
+  {
+  }
+  float operator()(const Eigen::Vector3f& p) const { return up.dot(p) + offset; }
+  Eigen::Vector3f up;
+  float offset;
+};
+
 /// The group sharing most links with the border's owner.
 std::size_t mostLinked(const std::map<std::size_t, int>& border)
 {
@@ -74,8 +86,8 @@ void joinPiecesThatCannotStand(const CloudXYZ& points, const std::vector<std::ve
                                const std::vector<int>& piece_of, const Eigen::Vector4f& plane, const TableFootprint& table,
                                const ConcaveSplitParams& params, UnionFind& objects)
 {
-  const Eigen::Vector3f up = plane.head<3>().normalized();
-  auto heightOf = [&](const Eigen::Vector3f& p) { return up.dot(p) + plane[3] / plane.head<3>().norm(); };
+  const HeightAboveTable heightOf(plane);
+  const Eigen::Vector3f& up = heightOf.up;
   std::map<std::size_t, float> lowest;
   for (std::size_t i = 0; i < points.size(); ++i)
   {
@@ -167,17 +179,36 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
         if (!on_crease[j])
           pieces.join(i, j);
 
-  // Pieces of at least min_piece_points non-crease points are the objects; every other point
-  // (crease points, slivers) takes the piece most of its k neighbours belong to, pass by pass
-  // outward from the pieces.
+  // Pieces of at least min_piece_points non-crease points are the objects, and so are pieces of
+  // min_standing_piece_points that stand on the table (a battery lying against a cup keeps fewer
+  // points than a box's face once its crease band is off; a sliver on one object hangs higher);
+  // every other point (crease points, slivers) takes the piece most of its k neighbours belong to,
+  // pass by pass outward from the pieces.
   constexpr int kUnassigned = -1;
   std::map<std::size_t, int> piece_size;
   for (std::size_t i = 0; i < n; ++i)
     if (!on_crease[i])
       ++piece_size[pieces.find(i)];
   std::map<std::size_t, int> piece_number;
-  for (const auto& [root, size] : piece_size)
+  const HeightAboveTable heightOf(plane);
+  std::map<std::size_t, float> piece_lowest;
+  if (params.min_standing_piece_points > 0)
+    for (std::size_t i = 0; i < n; ++i)
+      if (!on_crease[i])
+      {
+        const float height = heightOf(points->points[i].getVector3fMap());
+        const auto [it, inserted] = piece_lowest.emplace(pieces.find(i), height);
+        if (!inserted)
+          it->second = std::min(it->second, height);
+      }
+  auto isObject = [&](std::size_t root, int size) {
     if (size >= params.min_piece_points)
+      return true;
+    return params.min_standing_piece_points > 0 && size >= params.min_standing_piece_points &&
+           piece_lowest[root] <= static_cast<float>(params.standing_height_m);
+  };
+  for (const auto& [root, size] : piece_size)
+    if (isObject(root, size))
       piece_number.emplace(root, static_cast<int>(piece_number.size()));
   if (piece_number.size() <= 1)
   {

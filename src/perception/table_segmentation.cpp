@@ -90,10 +90,11 @@ std::string validateParams(const TableSegmentationParams& params)
     return "need 1 <= min_cluster_points <= max_cluster_points";
   if (params.concave_split.k_neighbours < 3 || !(params.concave_split.link_radius_m > 0.0) ||
       !(params.concave_split.concave_tolerance_rad > 0.0 && params.concave_split.concave_tolerance_rad < M_PI) ||
-      params.concave_split.min_piece_points < 1 || params.concave_split.bend_samples < 0 ||
+      params.concave_split.min_piece_points < 1 || params.concave_split.min_standing_piece_points < 0 ||
+      params.concave_split.bend_samples < 0 ||
       !(params.concave_split.table_cell_m > 0.0))
     return "concave split: need k_neighbours >= 3, link_radius_m > 0, concave_tolerance_rad in (0, pi), "
-           "min_piece_points >= 1, bend_samples >= 0, table_cell_m > 0";
+           "min_piece_points >= 1, min_standing_piece_points >= 0, bend_samples >= 0, table_cell_m > 0";
   const ContainerJoinParams& container = params.container_join;
   if (!(container.min_across_overlap >= 0.0) || !(container.max_top_difference_m >= 0.0) ||
       !(container.max_depth_to_width >= 0.0 && container.max_depth_to_width <= 100.0))

@@ -34,6 +34,10 @@ struct ConcaveSplitParams
   /// Connected non-crease points form a piece; pieces with fewer points are not objects. Crease
   /// points and small pieces then take the piece most of their k neighbours belong to.
   int min_piece_points = 40;
+  /// A smaller piece of at least this many points is an object too when it stands on the table
+  /// (its lowest point within standing_height_m of it): a battery or a bottle cap lying against a
+  /// cup is one, a crease band or a sliver on a face of one box is higher up. 0 = off.
+  int min_standing_piece_points = 15;
   /// A piece is a container's inside (joined to its outer wall) when more than this share of its
   /// bent point pairs are concave: bend_samples random pairs bend_min_distance_m to
   /// bend_max_distance_m apart, bent when their normals differ by more than bent_pair_rad.
