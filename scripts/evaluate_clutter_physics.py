@@ -14,13 +14,16 @@ succeeds when an object is lifted and held at the end, and that object is remove
 settle (objects that rolled out of the work area are dropped, not counted as cleared) and the
 loop renders again.
 
-Baseline measured: the pipeline today keeps ONE target cluster (config/perception.yaml
-target_cluster: center_of_view) and plans for it; touching objects come out as one cluster.
-Per-object perception and planning over the whole table (issue 11 parts 2-3) are not here.
+Without flags this measures the baseline: the pipeline keeps ONE target cluster
+(config/perception.yaml target_cluster: center_of_view) and plans for it, and touching objects
+come out as one cluster. The pipeline that clears tables (demo.launch split_touching_objects:=true
+all_objects:=true; issue 11 parts 2-3) is `--split-touching-objects --all-objects`, as below (the
+issue's numbers: docs/clutter.md).
 
     source scripts/env.sh; set +u; source "${FAST_GRASP_WS}/devel/setup.bash"; set -u
     FAST_GRASP_YCB_DIR="$(bash scripts/fetch_ycb.sh)" .ws/venv/bin/python scripts/evaluate_clutter_physics.py \
-        --planners fused --gripper robotiq_2f85 --tables 4 --out-dir bench_out/clutter
+        --planners fused --gripper robotiq_2f85 --split-touching-objects --all-objects \
+        --tables 50 --arrangements packed,piled --out-dir bench_out/clutter
 
 Success % = successful grasps / attempts; cleared % = objects removed by a grasp / objects
 placed. Every attempt goes to <out-dir>/attempts.csv, one row per table to tables.csv, the
