@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -185,30 +186,29 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   // every other point (crease points, slivers) takes the piece most of its k neighbours belong to,
   // pass by pass outward from the pieces.
   constexpr int kUnassigned = -1;
-  std::map<std::size_t, int> piece_size;
+  // Each piece's size (non-crease points) and lowest point above the table, in one pass.
+  struct PieceStats
+  {
+    int size = 0;
+    float lowest = std::numeric_limits<float>::max();
+  };
+  const HeightAboveTable heightOf(plane);
+  std::map<std::size_t, PieceStats> piece_stats;
   for (std::size_t i = 0; i < n; ++i)
     if (!on_crease[i])
-      ++piece_size[pieces.find(i)];
-  std::map<std::size_t, int> piece_number;
-  const HeightAboveTable heightOf(plane);
-  std::map<std::size_t, float> piece_lowest;
-  if (params.min_standing_piece_points > 0)
-    for (std::size_t i = 0; i < n; ++i)
-      if (!on_crease[i])
-      {
-        const float height = heightOf(points->points[i].getVector3fMap());
-        const auto [it, inserted] = piece_lowest.emplace(pieces.find(i), height);
-        if (!inserted)
-          it->second = std::min(it->second, height);
-      }
-  auto isObject = [&](std::size_t root, int size) {
-    if (size >= params.min_piece_points)
-      return true;
-    return params.min_standing_piece_points > 0 && size >= params.min_standing_piece_points &&
-           piece_lowest[root] <= static_cast<float>(params.standing_height_m);
+    {
+      PieceStats& piece = piece_stats[pieces.find(i)];
+      ++piece.size;
+      piece.lowest = std::min(piece.lowest, heightOf(points->points[i].getVector3fMap()));
+    }
+  auto isObject = [&params](const PieceStats& piece) {
+    return piece.size >= params.min_piece_points ||
+           (params.min_standing_piece_points > 0 && piece.size >= params.min_standing_piece_points &&
+            piece.lowest <= static_cast<float>(params.standing_height_m));
   };
-  for (const auto& [root, size] : piece_size)
-    if (isObject(root, size))
+  std::map<std::size_t, int> piece_number;
+  for (const auto& [root, piece] : piece_stats)
+    if (isObject(piece))
       piece_number.emplace(root, static_cast<int>(piece_number.size()));
   if (piece_number.size() <= 1)
   {
@@ -246,7 +246,7 @@ void splitCluster(const CloudXYZ& cloud, const pcl::Indices& members, const Eige
   }
   int largest = 0;
   for (const auto& [root, number] : piece_number)
-    if (piece_size[root] > piece_size[std::next(piece_number.begin(), largest)->first])
+    if (piece_stats.at(root).size > piece_stats.at(std::next(piece_number.begin(), largest)->first).size)
       largest = number;
   // Points cut off from every piece (an isolated sliver) stay with the largest piece of their
   // cluster rather than vanish.
